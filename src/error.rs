@@ -1,0 +1,88 @@
+//! The library's typed error. Every fallible public function returns [`Result`].
+//!
+//! Messages name the offending joint, link, file, row or parameter so that a user can fix
+//! the input without reading the source.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout the library.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Everything that can go wrong in powertwin.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The URDF text is not valid URDF XML.
+    #[error("malformed URDF: {0}")]
+    UrdfSyntax(String),
+    /// The URDF is valid XML but not a robot powertwin can model (names the link or joint).
+    #[error("unsupported robot model: {0}")]
+    Model(String),
+    /// A TOML file (drive, payload, scenario) is malformed or has unknown or missing keys.
+    #[error("{file}: {message}")]
+    Toml {
+        /// The file (or a label for in-memory text).
+        file: String,
+        /// Parser message, with line and column.
+        message: String,
+    },
+    /// A numeric input is not finite or has the wrong length.
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+    /// A joint position or velocity is outside its limit.
+    #[error("joint limit violated: {0}")]
+    JointLimit(String),
+    /// Inverse kinematics has no solution for the requested pose.
+    #[error("unreachable pose: {0}")]
+    Unreachable(String),
+    /// A regressor does not have full column rank; names the parameters that cannot be identified.
+    #[error("rank-deficient regressor (rank {rank} of {cols}): cannot identify {unidentifiable}")]
+    RankDeficient {
+        /// Numerical rank found.
+        rank: usize,
+        /// Number of columns.
+        cols: usize,
+        /// Names of the parameters that are not identifiable from the data.
+        unidentifiable: String,
+    },
+    /// A CSV table is malformed (names the row, 1-based, counting the header as row 1).
+    #[error("{file}: row {row}: {message}")]
+    Table {
+        /// The file.
+        file: String,
+        /// 1-based row number (header = row 1).
+        row: usize,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl Error {
+    /// Wrap an I/O error with the path it concerns.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Check that every value of a slice is finite; `what` names the quantity in the message.
+pub fn ensure_finite(values: &[f64], what: &str) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(Error::InvalidInput(format!(
+            "{what}[{}] is {} (must be finite)",
+            i + 1,
+            values[i]
+        ))),
+    }
+}

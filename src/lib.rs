@@ -1,0 +1,21 @@
+//! # powertwin
+//!
+//! A digital twin of an industrial robot (by default the ABB IRB 1200-7/0.7) that identifies
+//! dynamic and drive parameters from motor power and predicts the energy of a task, after
+//! Liu et al., "Energy consumption modeling of industrial robot based on simulated power data
+//! and parameter identification", Adv. Mech. Eng. 10(5), 2018.
+//!
+//! Data flows one way through the modules:
+//! [`model`] (URDF, drives, payloads) -> [`kinematics`] -> [`dynamics`] (RNEA, regressor,
+//! mass matrix, base parameters) -> later stages (trajectory, twin, dataset, identification,
+//! energy, validation).
+//!
+//! Units are SI everywhere (m, rad, kg, s, N m, W, J); frames are described in [`model`].
+
+pub mod dynamics;
+pub mod error;
+pub mod kinematics;
+pub mod model;
+
+pub use error::{Error, Result};
+pub use model::Robot;
