@@ -1,1 +1,260 @@
-//! drive
+//! Per-joint drive data that a URDF cannot hold: reflected rotor inertia, motor efficiency,
+//! copper and standby losses, and friction overrides.
+//!
+//! # Units and sides
+//! Every quantity is referred to the **link side** of the gearbox (joint torque `tau` in N m,
+//! joint speed `dq` in rad/s):
+//! - rotor inertia: kg m^2 (motor rotor inertia times the squared gear ratio),
+//! - efficiency `eta`: dimensionless, in (0, 1] (Liu et al. 2018, eq. 9: `P = tau dq / eta`),
+//! - copper loss coefficient `c`: W/(N m)^2, so that `P_copper = c tau^2`,
+//! - standby power `P0`: W, drawn while the servo is on, even at rest,
+//! - friction: Coulomb torque in N m and viscous coefficient in N m s/rad.
+//!
+//! # File format (TOML)
+//! ```toml
+//! robot = "abb_irb1200_7_70"          # optional; must equal the robot name when present
+//! [[joint]]                           # one entry per robot joint, any order
+//! name = "joint_1"
+//! rotor_inertia_kgm2 = 0.36
+//! efficiency = 0.87
+//! copper_loss_W_per_Nm2 = 0.0045
+//! standby_W = 4.0
+//! coulomb_Nm = 10.0                   # optional; default: the URDF <dynamics friction>
+//! viscous_Nms_per_rad = 8.0           # optional; default: the URDF <dynamics damping>
+//! ```
+//! Unknown keys, missing or repeated joints and out-of-range values are errors that name the
+//! file, the joint and the key.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+use crate::model::{Friction, Robot};
+
+/// Drive data of one joint, link side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointDrive {
+    /// Motor rotor inertia reflected to the link side, kg m^2 (adds to the joint's diagonal
+    /// mass-matrix entry).
+    pub rotor_inertia: f64,
+    /// Motor efficiency `eta` in (0, 1] (Liu et al. 2018, eq. 9).
+    pub efficiency: f64,
+    /// Copper loss coefficient, W/(N m)^2: `P_copper = copper_loss * tau^2` with the link-side
+    /// torque `tau` in N m.
+    pub copper_loss: f64,
+    /// Constant power while the servo is on, W.
+    pub standby_power: f64,
+    /// Coulomb (N m) and viscous (N m s/rad) friction at the link side.
+    pub friction: Friction,
+}
+
+impl JointDrive {
+    /// The lossless, inertia-free drive with the given friction.
+    fn lossless(friction: Friction) -> Self {
+        JointDrive {
+            rotor_inertia: 0.0,
+            efficiency: 1.0,
+            copper_loss: 0.0,
+            standby_power: 0.0,
+            friction,
+        }
+    }
+}
+
+/// Drive data of every joint of a robot, in robot joint order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drive {
+    joints: Vec<JointDrive>,
+}
+
+/// The TOML file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DriveFile {
+    robot: Option<String>,
+    joint: Vec<JointEntry>,
+}
+
+/// One `[[joint]]` table.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointEntry {
+    name: String,
+    rotor_inertia_kgm2: f64,
+    efficiency: f64,
+    #[serde(rename = "copper_loss_W_per_Nm2")]
+    copper_loss: f64,
+    #[serde(rename = "standby_W")]
+    standby: f64,
+    #[serde(rename = "coulomb_Nm")]
+    coulomb: Option<f64>,
+    #[serde(rename = "viscous_Nms_per_rad")]
+    viscous: Option<f64>,
+}
+
+impl Drive {
+    /// Parse a drive file's text for `robot`. `label` names the file in error messages.
+    ///
+    /// Errors ([`Error::Toml`]): malformed TOML or unknown/missing keys (with the parser's line
+    /// and column), a `robot` name that differs from `robot.name()`, joints that are missing,
+    /// repeated or not in the robot, non-finite values, an efficiency outside (0, 1] or a
+    /// negative inertia, loss or friction value.
+    pub fn from_toml_str(text: &str, label: &str, robot: &Robot) -> Result<Drive> {
+        let err = |message: String| Error::Toml {
+            file: label.to_string(),
+            message,
+        };
+        let file: DriveFile =
+            toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+        if let Some(name) = &file.robot
+            && name != robot.name()
+        {
+            return Err(err(format!(
+                "the drive file is for robot '{name}' but the model is '{}'",
+                robot.name()
+            )));
+        }
+
+        let index: HashMap<&str, usize> = robot
+            .joints()
+            .iter()
+            .enumerate()
+            .map(|(i, j)| (j.name.as_str(), i))
+            .collect();
+        let mut slots: Vec<Option<&JointEntry>> = vec![None; robot.dof()];
+        let mut unknown = Vec::new();
+        let mut repeated = Vec::new();
+        for entry in &file.joint {
+            match index.get(entry.name.as_str()) {
+                None => unknown.push(format!("'{}'", entry.name)),
+                Some(&i) if slots[i].is_some() => repeated.push(format!("'{}'", entry.name)),
+                Some(&i) => slots[i] = Some(entry),
+            }
+        }
+        let missing: Vec<String> = robot
+            .joints()
+            .iter()
+            .zip(&slots)
+            .filter(|(_, s)| s.is_none())
+            .map(|(j, _)| format!("'{}'", j.name))
+            .collect();
+        let mut problems = Vec::new();
+        if !unknown.is_empty() {
+            let names: Vec<&str> = robot.joints().iter().map(|j| j.name.as_str()).collect();
+            problems.push(format!(
+                "unknown joint(s) {} (robot '{}' has {})",
+                unknown.join(", "),
+                robot.name(),
+                names.join(", ")
+            ));
+        }
+        if !repeated.is_empty() {
+            problems.push(format!(
+                "joint(s) listed more than once: {}",
+                repeated.join(", ")
+            ));
+        }
+        if !missing.is_empty() {
+            problems.push(format!("missing joint(s): {}", missing.join(", ")));
+        }
+        if !problems.is_empty() {
+            return Err(err(problems.join("; ")));
+        }
+
+        // No joint is missing (checked above), so the entries line up with the robot's joints.
+        let entries = slots.into_iter().flatten();
+        let joints = robot
+            .joints()
+            .iter()
+            .zip(entries)
+            .map(|(joint, e)| {
+                let drive = JointDrive {
+                    rotor_inertia: e.rotor_inertia_kgm2,
+                    efficiency: e.efficiency,
+                    copper_loss: e.copper_loss,
+                    standby_power: e.standby,
+                    friction: Friction {
+                        coulomb: e.coulomb.unwrap_or(joint.friction.coulomb),
+                        viscous: e.viscous.unwrap_or(joint.friction.viscous),
+                    },
+                };
+                check_joint(&drive).map_err(|m| err(format!("joint '{}': {m}", joint.name)))?;
+                Ok(drive)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Drive { joints })
+    }
+
+    /// Read and parse a drive file for `robot` (see [`Drive::from_toml_str`]); I/O failures
+    /// give [`Error::Io`].
+    pub fn from_file(path: &Path, robot: &Robot) -> Result<Drive> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Drive::from_toml_str(&text, &path.display().to_string(), robot)
+    }
+
+    /// Ideal drives: no friction, no rotor inertia, efficiency 1, no copper or standby loss.
+    pub fn ideal(robot: &Robot) -> Drive {
+        Drive {
+            joints: vec![JointDrive::lossless(Friction::default()); robot.dof()],
+        }
+    }
+
+    /// The URDF's `<dynamics>` friction with otherwise ideal drives (no rotor inertia,
+    /// efficiency 1, no copper or standby loss).
+    pub fn from_urdf(robot: &Robot) -> Drive {
+        Drive {
+            joints: robot
+                .joints()
+                .iter()
+                .map(|j| JointDrive::lossless(j.friction))
+                .collect(),
+        }
+    }
+
+    /// Drive data per joint, in robot joint order.
+    pub fn joints(&self) -> &[JointDrive] {
+        &self.joints
+    }
+
+    /// Reflected rotor inertias per joint, kg m^2 (link side).
+    pub fn rotor_inertia(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.rotor_inertia).collect()
+    }
+
+    /// Coulomb friction torques per joint, N m (link side).
+    pub fn coulomb(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.friction.coulomb).collect()
+    }
+
+    /// Viscous friction coefficients per joint, N m s/rad (link side).
+    pub fn viscous(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.friction.viscous).collect()
+    }
+
+    /// Motor efficiencies per joint, in (0, 1].
+    pub fn efficiency(&self) -> Vec<f64> {
+        self.joints.iter().map(|j| j.efficiency).collect()
+    }
+}
+
+/// Range checks of one joint's values; the message names the TOML key.
+fn check_joint(d: &JointDrive) -> std::result::Result<(), String> {
+    let non_negative = [
+        ("rotor_inertia_kgm2", d.rotor_inertia),
+        ("copper_loss_W_per_Nm2", d.copper_loss),
+        ("standby_W", d.standby_power),
+        ("coulomb_Nm", d.friction.coulomb),
+        ("viscous_Nms_per_rad", d.friction.viscous),
+    ];
+    for (key, v) in non_negative {
+        if !v.is_finite() || v < 0.0 {
+            return Err(format!("{key} = {v} must be finite and >= 0"));
+        }
+    }
+    if !(d.efficiency.is_finite() && d.efficiency > 0.0 && d.efficiency <= 1.0) {
+        return Err(format!("efficiency = {} must be in (0, 1]", d.efficiency));
+    }
+    Ok(())
+}

@@ -13,6 +13,7 @@
 //! # Units
 //! SI throughout: m, rad, kg, kg m^2, N m, s.
 
+pub mod builtin;
 pub mod drive;
 pub mod frames;
 pub mod inertia;
