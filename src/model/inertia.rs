@@ -60,7 +60,7 @@ impl RigidInertia {
         let r = r.matrix();
         RigidInertia {
             mass: self.mass,
-            com: pose * nalgebra::Point3::from(self.com).coords,
+            com: (pose * nalgebra::Point3::from(self.com)).coords,
             inertia_com: r * self.inertia_com * r.transpose(),
         }
     }
@@ -126,7 +126,9 @@ impl RigidInertia {
             && self.com.iter().all(|v| v.is_finite())
             && self.inertia_com.iter().all(|v| v.is_finite());
         if !finite {
-            return Err(Error::Model(format!("{what}: mass properties are not finite")));
+            return Err(Error::Model(format!(
+                "{what}: mass properties are not finite"
+            )));
         }
         if self.mass <= 0.0 {
             return Err(Error::Model(format!(
@@ -139,7 +141,9 @@ impl RigidInertia {
         let eig = i.symmetric_eigenvalues();
         let scale = eig.abs().max().max(1e-300);
         if asym > 1e-12 * scale {
-            return Err(Error::Model(format!("{what}: inertia tensor is not symmetric")));
+            return Err(Error::Model(format!(
+                "{what}: inertia tensor is not symmetric"
+            )));
         }
         let min = eig.min();
         if min <= 0.0 {
@@ -170,7 +174,11 @@ mod tests {
     use nalgebra::{Translation3, UnitQuaternion};
 
     fn body() -> RigidInertia {
-        RigidInertia::new(2.0, Vector3::new(0.1, -0.2, 0.3), [0.05, 0.04, 0.03, 0.001, -0.002, 0.003])
+        RigidInertia::new(
+            2.0,
+            Vector3::new(0.1, -0.2, 0.3),
+            [0.05, 0.04, 0.03, 0.001, -0.002, 0.003],
+        )
     }
 
     #[test]
@@ -200,8 +208,18 @@ mod tests {
             UnitQuaternion::from_euler_angles(0.3, -0.7, 1.1),
         );
         let t = b.transformed(&pose);
-        let mut a: Vec<f64> = b.inertia_com.symmetric_eigenvalues().iter().copied().collect();
-        let mut c: Vec<f64> = t.inertia_com.symmetric_eigenvalues().iter().copied().collect();
+        let mut a: Vec<f64> = b
+            .inertia_com
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .collect();
+        let mut c: Vec<f64> = t
+            .inertia_com
+            .symmetric_eigenvalues()
+            .iter()
+            .copied()
+            .collect();
         a.sort_by(f64::total_cmp);
         c.sort_by(f64::total_cmp);
         for (x, y) in a.iter().zip(&c) {
@@ -215,10 +233,25 @@ mod tests {
         assert!(body().validate("b").is_ok());
         let mut b = body();
         b.mass = 0.0;
-        assert!(b.validate("link_x").unwrap_err().to_string().contains("link_x"));
+        assert!(
+            b.validate("link_x")
+                .unwrap_err()
+                .to_string()
+                .contains("link_x")
+        );
         let b = RigidInertia::new(1.0, Vector3::zeros(), [1.0, 1.0, -1.0, 0.0, 0.0, 0.0]);
-        assert!(b.validate("l").unwrap_err().to_string().contains("positive definite"));
+        assert!(
+            b.validate("l")
+                .unwrap_err()
+                .to_string()
+                .contains("positive definite")
+        );
         let b = RigidInertia::new(1.0, Vector3::zeros(), [1.0, 1.0, 3.0, 0.0, 0.0, 0.0]);
-        assert!(b.validate("l").unwrap_err().to_string().contains("triangle"));
+        assert!(
+            b.validate("l")
+                .unwrap_err()
+                .to_string()
+                .contains("triangle")
+        );
     }
 }

@@ -180,7 +180,11 @@ impl Robot {
                 )));
             }
             let f = &j.friction;
-            if !(f.coulomb.is_finite() && f.viscous.is_finite() && f.coulomb >= 0.0 && f.viscous >= 0.0) {
+            if !(f.coulomb.is_finite()
+                && f.viscous.is_finite()
+                && f.coulomb >= 0.0
+                && f.viscous >= 0.0)
+            {
                 return Err(Error::Model(format!(
                     "joint '{}': friction must be finite and non-negative (coulomb {}, viscous {})",
                     j.name, f.coulomb, f.viscous
@@ -189,7 +193,10 @@ impl Robot {
             let iso_ok = j.origin.translation.vector.iter().all(|v| v.is_finite())
                 && j.origin.rotation.coords.iter().all(|v| v.is_finite());
             if !iso_ok {
-                return Err(Error::Model(format!("joint '{}': origin is not finite", j.name)));
+                return Err(Error::Model(format!(
+                    "joint '{}': origin is not finite",
+                    j.name
+                )));
             }
             l.inertia
                 .validate(&format!("link '{}' (moved by joint '{}')", l.name, j.name))?;
@@ -259,7 +266,10 @@ impl Robot {
     /// Standard inertial parameters of every link, `n x 10`, layout of [`inertia::STANDARD_NAMES`]
     /// in the link frames (kg m^2, kg m, kg).
     pub fn standard_params(&self) -> Vec<[f64; 10]> {
-        self.links.iter().map(|l| l.inertia.standard_params()).collect()
+        self.links
+            .iter()
+            .map(|l| l.inertia.standard_params())
+            .collect()
     }
 
     /// A copy with link `i`'s mass properties replaced (e.g. link 6 plus a payload).

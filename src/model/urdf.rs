@@ -1,1 +1,387 @@
-//! urdf
+//! Loading a fixed-base serial chain of revolute joints from URDF.
+//!
+//! - Revolute joints move; continuous joints are revolute without position limits.
+//! - Fixed joints, and joints named in [`LoadOptions::lock`] (frozen at 0), merge their child
+//!   link into the parent body; mass properties are combined about the common frame.
+//! - Anything else (prismatic, floating, planar, spherical, mimic joints) must be locked.
+//! - The moving joints must form one chain from the root: a branching tree, several roots,
+//!   a floating base, a moving link without `<inertial>`, a non-positive mass or a
+//!   non-positive-definite inertia give an [`Error::Model`] naming the link or joint.
+//! - The flange is the fixed descendant of the last link named `tool0`, else `flange`, else
+//!   the last link itself.
+//!
+//! Link frames are re-chosen by MDH rules ([`crate::model::frames`]); the URDF frames are
+//! kept as [`crate::model::Link::urdf_pose`]. Joint coordinates are the URDF's.
+
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+
+use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
+
+use crate::error::{Error, Result};
+use crate::model::frames::{AxisLine, canonical_frames};
+use crate::model::{Friction, Geometry, Joint, JointLimits, Link, RigidInertia, Robot, Shape};
+
+/// Options for loading a URDF.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Names of joints to freeze at position 0 (e.g. gripper fingers).
+    pub lock: Vec<String>,
+}
+
+/// Load a robot from a URDF file.
+pub fn load_file(path: &Path, opts: &LoadOptions) -> Result<Robot> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    load_str(&text, opts).map_err(|e| match e {
+        Error::UrdfSyntax(m) => Error::UrdfSyntax(format!("{}: {m}", path.display())),
+        Error::Model(m) => Error::Model(format!("{}: {m}", path.display())),
+        other => other,
+    })
+}
+
+/// Load a robot from URDF text.
+pub fn load_str(text: &str, opts: &LoadOptions) -> Result<Robot> {
+    let urdf = urdf_rs::read_from_string(text).map_err(|e| Error::UrdfSyntax(e.to_string()))?;
+    build(&urdf, opts)
+}
+
+fn pose(p: &urdf_rs::Pose) -> Result<Isometry3<f64>> {
+    let (xyz, rpy) = (p.xyz.0, p.rpy.0);
+    if xyz.iter().chain(&rpy).any(|v| !v.is_finite()) {
+        return Err(Error::Model("an <origin> has a non-finite value".into()));
+    }
+    Ok(Isometry3::from_parts(
+        Translation3::new(xyz[0], xyz[1], xyz[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    ))
+}
+
+/// Mass properties of one URDF link in its own frame; `None` when it has no inertial at all.
+fn link_inertia(link: &urdf_rs::Link) -> Result<Option<RigidInertia>> {
+    let inl = &link.inertial;
+    let i = &inl.inertia;
+    let vals = [i.ixx, i.iyy, i.izz, i.ixy, i.ixz, i.iyz];
+    if inl.mass.value == 0.0 && vals.iter().all(|v| *v == 0.0) {
+        return Ok(None);
+    }
+    let origin =
+        pose(&inl.origin).map_err(|e| Error::Model(format!("link '{}': {e}", link.name)))?;
+    let body = RigidInertia::new(inl.mass.value, Vector3::zeros(), vals).transformed(&origin);
+    body.validate(&format!("link '{}'", link.name))?;
+    Ok(Some(body))
+}
+
+fn shapes<'a>(
+    items: impl Iterator<Item = (&'a urdf_rs::Pose, &'a urdf_rs::Geometry, Option<[f32; 4]>)>,
+    link_to_frame: &Isometry3<f64>,
+    link: &str,
+) -> Result<Vec<Shape>> {
+    items
+        .map(|(origin, geom, rgba)| {
+            let geometry = match geom {
+                urdf_rs::Geometry::Box { size } => Geometry::Box { size: size.0 },
+                urdf_rs::Geometry::Cylinder { radius, length } => Geometry::Cylinder {
+                    radius: *radius,
+                    length: *length,
+                },
+                urdf_rs::Geometry::Capsule { radius, length } => Geometry::Capsule {
+                    radius: *radius,
+                    length: *length,
+                },
+                urdf_rs::Geometry::Sphere { radius } => Geometry::Sphere { radius: *radius },
+                urdf_rs::Geometry::Mesh { filename, scale } => Geometry::Mesh {
+                    filename: filename.clone(),
+                    scale: scale.map(|s| s.0).unwrap_or([1.0; 3]),
+                },
+            };
+            let p = pose(origin).map_err(|e| Error::Model(format!("link '{link}': {e}")))?;
+            Ok(Shape {
+                pose: link_to_frame * p,
+                geometry,
+                rgba,
+            })
+        })
+        .collect()
+}
+
+/// Is this joint moving (revolute/continuous, not locked)? Errors for unsupported types.
+fn is_moving(j: &urdf_rs::Joint, locked: &HashSet<&str>) -> Result<bool> {
+    use urdf_rs::JointType as T;
+    if locked.contains(j.name.as_str()) || j.joint_type == T::Fixed {
+        return Ok(false);
+    }
+    if j.mimic.is_some() {
+        return Err(Error::Model(format!(
+            "joint '{}' mimics another joint; lock it with --lock {}",
+            j.name, j.name
+        )));
+    }
+    match j.joint_type {
+        T::Revolute | T::Continuous => Ok(true),
+        T::Floating | T::Planar => Err(Error::Model(format!(
+            "joint '{}' is {:?}: floating or planar bases are not supported (fixed-base chains only)",
+            j.name, j.joint_type
+        ))),
+        _ => Err(Error::Model(format!(
+            "joint '{}' is {:?}; only revolute and continuous joints can move; lock it with --lock {}",
+            j.name, j.joint_type, j.name
+        ))),
+    }
+}
+
+fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
+    let mut links: HashMap<&str, &urdf_rs::Link> = HashMap::new();
+    for l in &urdf.links {
+        if links.insert(l.name.as_str(), l).is_some() {
+            return Err(Error::Model(format!("link '{}' is defined twice", l.name)));
+        }
+    }
+    let mut joint_names = HashSet::new();
+    let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+    let mut children: HashMap<&str, Vec<&urdf_rs::Joint>> = HashMap::new();
+    for j in &urdf.joints {
+        if !joint_names.insert(j.name.as_str()) {
+            return Err(Error::Model(format!("joint '{}' is defined twice", j.name)));
+        }
+        for end in [&j.parent.link, &j.child.link] {
+            if !links.contains_key(end.as_str()) {
+                return Err(Error::Model(format!(
+                    "joint '{}' refers to unknown link '{end}'",
+                    j.name
+                )));
+            }
+        }
+        if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
+            return Err(Error::Model(format!(
+                "link '{}' has two parent joints ('{}' and '{}')",
+                j.child.link, other.name, j.name
+            )));
+        }
+        children.entry(j.parent.link.as_str()).or_default().push(j);
+    }
+    let locked: HashSet<&str> = opts.lock.iter().map(String::as_str).collect();
+    for name in &locked {
+        if !joint_names.contains(name) {
+            return Err(Error::Model(format!("--lock names unknown joint '{name}'")));
+        }
+    }
+    let roots: Vec<&str> = urdf
+        .links
+        .iter()
+        .map(|l| l.name.as_str())
+        .filter(|n| !parent_of.contains_key(n))
+        .collect();
+    let root = match roots.as_slice() {
+        [r] => *r,
+        [] => return Err(Error::Model("the link tree has no root (cycle?)".into())),
+        many => {
+            return Err(Error::Model(format!(
+                "the URDF has {} root links ({}); a robot is one connected tree",
+                many.len(),
+                many.join(", ")
+            )));
+        }
+    };
+
+    // Walk the tree at q = 0: world pose of every link and the body (0 = base) it belongs to.
+    struct Visit<'a> {
+        link: &'a str,
+        world: Isometry3<f64>,
+        body: usize,
+    }
+    let mut visits: Vec<Visit> = Vec::new();
+    let mut moving: Vec<&urdf_rs::Joint> = Vec::new();
+    let mut moving_joint_world: Vec<Isometry3<f64>> = Vec::new();
+    let mut stack = vec![Visit {
+        link: root,
+        world: Isometry3::identity(),
+        body: 0,
+    }];
+    let mut seen = HashSet::new();
+    while let Some(v) = stack.pop() {
+        if !seen.insert(v.link) {
+            return Err(Error::Model(format!(
+                "link '{}' is reached twice (cycle)",
+                v.link
+            )));
+        }
+        for j in children.get(v.link).map(Vec::as_slice).unwrap_or(&[]) {
+            let origin =
+                pose(&j.origin).map_err(|e| Error::Model(format!("joint '{}': {e}", j.name)))?;
+            let world = v.world * origin;
+            let body = if is_moving(j, &locked)? {
+                if moving.len() != v.body {
+                    let sibling = moving[v.body].name.as_str();
+                    return Err(Error::Model(format!(
+                        "the chain branches: joints '{sibling}' and '{}' both move from the same body; only serial chains are supported (lock one branch with --lock)",
+                        j.name
+                    )));
+                }
+                moving.push(j);
+                moving_joint_world.push(world);
+                moving.len()
+            } else {
+                v.body
+            };
+            stack.push(Visit {
+                link: j.child.link.as_str(),
+                world,
+                body,
+            });
+        }
+        visits.push(v);
+    }
+    if moving.is_empty() {
+        return Err(Error::Model(
+            "the URDF has no revolute or continuous joint".into(),
+        ));
+    }
+
+    // Joint axes in the base frame and the MDH link frames.
+    let mut axes = Vec::with_capacity(moving.len());
+    for (j, w) in moving.iter().zip(&moving_joint_world) {
+        let a = Vector3::from(j.axis.xyz.0);
+        if !a.iter().all(|v| v.is_finite()) || a.norm() < 1e-9 {
+            return Err(Error::Model(format!(
+                "joint '{}' has a zero or invalid <axis>",
+                j.name
+            )));
+        }
+        axes.push(AxisLine {
+            point: Point3::from(w.translation.vector),
+            dir: Unit::new_normalize(w.rotation * a),
+        });
+    }
+    let frames = canonical_frames(&axes);
+    let frame_of = |body: usize| {
+        if body == 0 {
+            Isometry3::identity()
+        } else {
+            frames[body - 1]
+        }
+    };
+
+    // Merge the links of every body, expressed in the body's MDH frame.
+    let n = moving.len();
+    let mut bodies: Vec<Link> = (0..=n)
+        .map(|b| {
+            let name = if b == 0 {
+                root
+            } else {
+                moving[b - 1].child.link.as_str()
+            };
+            Link {
+                name: name.to_string(),
+                inertia: RigidInertia::zero(),
+                urdf_pose: frame_of(b).inverse()
+                    * if b == 0 {
+                        Isometry3::identity()
+                    } else {
+                        moving_joint_world[b - 1]
+                    },
+                visuals: Vec::new(),
+                collisions: Vec::new(),
+            }
+        })
+        .collect();
+    let mut flange: Option<(u8, Isometry3<f64>, &str)> = None;
+    for v in &visits {
+        let link = links[v.link];
+        let to_frame = frame_of(v.body).inverse() * v.world;
+        let inertia = link_inertia(link)?;
+        if v.body > 0 && v.link == moving[v.body - 1].child.link && inertia.is_none() {
+            return Err(Error::Model(format!(
+                "link '{}' (moved by joint '{}') has no <inertial>",
+                v.link,
+                moving[v.body - 1].name
+            )));
+        }
+        let b = &mut bodies[v.body];
+        if let Some(i) = inertia {
+            b.inertia = b.inertia.combined(&i.transformed(&to_frame));
+        }
+        let rgba = |vis: &urdf_rs::Visual| {
+            vis.material
+                .as_ref()
+                .and_then(|m| m.color.as_ref())
+                .map(|c| c.rgba.0.map(|x| x as f32))
+        };
+        b.visuals.extend(shapes(
+            link.visual
+                .iter()
+                .map(|vis| (&vis.origin, &vis.geometry, rgba(vis))),
+            &to_frame,
+            v.link,
+        )?);
+        b.collisions.extend(shapes(
+            link.collision
+                .iter()
+                .map(|c| (&c.origin, &c.geometry, None)),
+            &to_frame,
+            v.link,
+        )?);
+        if v.body == n {
+            let rank = match v.link {
+                "tool0" => 0,
+                "flange" => 1,
+                l if l == moving[n - 1].child.link => 2,
+                _ => 3,
+            };
+            if rank < 3 && flange.is_none_or(|(r, _, _)| rank < r) {
+                flange = Some((rank, to_frame, link.name.as_str()));
+            }
+        }
+    }
+    let (_, flange_pose, flange_name) = flange.expect("the last moving link is always visited");
+
+    let mut joints = Vec::with_capacity(n);
+    for (i, j) in moving.iter().enumerate() {
+        let continuous = j.joint_type == urdf_rs::JointType::Continuous;
+        let lim = &j.limit;
+        let (lower, upper) = if continuous {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            if lim.lower == 0.0 && lim.upper == 0.0 {
+                return Err(Error::Model(format!(
+                    "revolute joint '{}' has no <limit lower upper> (use type=\"continuous\" for an unlimited joint)",
+                    j.name
+                )));
+            }
+            (lim.lower, lim.upper)
+        };
+        let velocity = if lim.velocity > 0.0 {
+            lim.velocity
+        } else if lim.velocity == 0.0 {
+            f64::INFINITY
+        } else {
+            return Err(Error::Model(format!(
+                "joint '{}' has a negative velocity limit",
+                j.name
+            )));
+        };
+        let dynamics = j.dynamics.clone().unwrap_or_default();
+        joints.push(Joint {
+            name: j.name.clone(),
+            origin: frame_of(i).inverse() * frames[i],
+            limits: JointLimits {
+                lower,
+                upper,
+                velocity,
+                effort: (lim.effort > 0.0).then_some(lim.effort),
+            },
+            friction: Friction {
+                coulomb: dynamics.friction,
+                viscous: dynamics.damping,
+            },
+        });
+    }
+    let base = bodies.remove(0);
+    Robot::new(
+        urdf.name.clone(),
+        base,
+        joints,
+        bodies,
+        flange_pose,
+        flange_name,
+    )
+}

@@ -1,0 +1,39 @@
+//! Shared helpers for the integration tests.
+#![allow(dead_code)]
+
+use powertwin::Robot;
+use powertwin::model::urdf::{LoadOptions, load_file};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// The default IRB 1200-7/0.7 model from `models/`.
+pub fn irb1200() -> Robot {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/irb1200_7_70.urdf");
+    load_file(&path, &LoadOptions::default()).expect("models/irb1200_7_70.urdf loads")
+}
+
+/// Deterministic RNG for tests.
+pub fn rng(seed: u64) -> ChaCha8Rng {
+    ChaCha8Rng::seed_from_u64(seed)
+}
+
+/// A random state inside the position limits (continuous joints in [-pi, pi]) with
+/// velocities up to 2 rad/s and accelerations up to 5 rad/s^2.
+pub fn random_state(robot: &Robot, rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let q = robot
+        .joints()
+        .iter()
+        .map(|j| {
+            let lo = j.limits.lower.max(-std::f64::consts::PI);
+            let hi = j.limits.upper.min(std::f64::consts::PI);
+            rng.random_range(lo..hi)
+        })
+        .collect();
+    let dq = (0..robot.dof())
+        .map(|_| rng.random_range(-2.0..2.0))
+        .collect();
+    let ddq = (0..robot.dof())
+        .map(|_| rng.random_range(-5.0..5.0))
+        .collect();
+    (q, dq, ddq)
+}

@@ -1,0 +1,251 @@
+//! Inverse dynamics, regressor and mass matrix: checked against each other and against an
+//! independent Lagrangian route (CRBA mass matrix, Christoffel symbols and the gradient of
+//! the potential energy by finite differences).
+
+mod common;
+
+use nalgebra::{DMatrix, DVector};
+use powertwin::dynamics::crba::{
+    forward_dynamics, kinetic_energy, link_poses, mass_matrix, potential_energy,
+};
+use powertwin::dynamics::regressor::{regressor, to_power_rows, total_power_row};
+use powertwin::dynamics::rnea::{rnea, rnea_checked};
+use powertwin::dynamics::{DriveTerms, GRAVITY, ParamLayout, Workspace};
+
+fn drive(n: usize) -> DriveTerms {
+    DriveTerms {
+        rotor_inertia: (0..n).map(|i| 0.3 / (i + 1) as f64).collect(),
+        viscous: (0..n).map(|i| 5.0 / (i + 1) as f64).collect(),
+        coulomb: (0..n).map(|i| 8.0 / (i + 1) as f64).collect(),
+    }
+}
+
+#[test]
+fn regressor_times_theta_equals_rnea() {
+    let robot = common::irb1200();
+    let n = robot.dof();
+    let d = drive(n);
+    let mut ws = Workspace::new(&robot);
+    let mut rng = common::rng(1);
+    for (friction, armature) in [(false, false), (true, false), (true, true)] {
+        let layout = ParamLayout::new(&robot, friction, armature);
+        let theta = DVector::from_vec(layout.theta(&robot, &d));
+        let mut w = DMatrix::zeros(n, layout.len());
+        for _ in 0..500 {
+            let (q, dq, ddq) = common::random_state(&robot, &mut rng);
+            let terms = DriveTerms {
+                rotor_inertia: if armature {
+                    d.rotor_inertia.clone()
+                } else {
+                    vec![0.0; n]
+                },
+                viscous: if friction {
+                    d.viscous.clone()
+                } else {
+                    vec![0.0; n]
+                },
+                coulomb: if friction {
+                    d.coulomb.clone()
+                } else {
+                    vec![0.0; n]
+                },
+            };
+            let tau = rnea_checked(&robot, &mut ws, &q, &dq, &ddq, Some(&terms)).unwrap();
+            regressor(&robot, &mut ws, &layout, &q, &dq, &ddq, &mut w);
+            let wt = &w * &theta;
+            for i in 0..n {
+                assert!(
+                    (wt[i] - tau[i]).abs() < 1e-10,
+                    "joint {i}: W theta {} vs RNEA {}",
+                    wt[i],
+                    tau[i]
+                );
+            }
+            // Power rows (eq. 11) and the total-power row.
+            let mut wp = w.clone();
+            to_power_rows(&mut wp, &dq);
+            let p = &wp * &theta;
+            let mut row = vec![0.0; layout.len()];
+            total_power_row(&w, &dq, &mut row);
+            let total: f64 = row.iter().zip(theta.iter()).map(|(a, b)| a * b).sum();
+            let expect: f64 = tau.iter().zip(&dq).map(|(t, v)| t * v).sum();
+            assert!((total - expect).abs() < 1e-9 * (1.0 + expect.abs()));
+            for i in 0..n {
+                assert!((p[i] - tau[i] * dq[i]).abs() < 1e-9);
+            }
+        }
+    }
+}
+
+/// `dM/dq_k` by central differences.
+fn dm_dq(robot: &powertwin::Robot, q: &[f64], k: usize) -> DMatrix<f64> {
+    let h = 1e-6;
+    let mut qp = q.to_vec();
+    let mut qm = q.to_vec();
+    qp[k] += h;
+    qm[k] -= h;
+    (mass_matrix(robot, &qp, None) - mass_matrix(robot, &qm, None)) / (2.0 * h)
+}
+
+#[test]
+fn rnea_matches_lagrangian_route() {
+    let robot = common::irb1200();
+    let n = robot.dof();
+    let mut ws = Workspace::new(&robot);
+    let mut rng = common::rng(2);
+    for _ in 0..50 {
+        let (q, dq, ddq) = common::random_state(&robot, &mut rng);
+        let m = mass_matrix(&robot, &q, None);
+        let dms: Vec<DMatrix<f64>> = (0..n).map(|k| dm_dq(&robot, &q, k)).collect();
+        let h = 1e-6;
+        for k in 0..n {
+            // Christoffel form of C(q, dq) dq.
+            let mut c = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    c += (dms[i][(k, j)] - 0.5 * dms[k][(i, j)]) * dq[i] * dq[j];
+                }
+            }
+            let mut qp = q.clone();
+            let mut qm = q.clone();
+            qp[k] += h;
+            qm[k] -= h;
+            let g = (potential_energy(&robot, &qp, &GRAVITY)
+                - potential_energy(&robot, &qm, &GRAVITY))
+                / (2.0 * h);
+            let mddq: f64 = (0..n).map(|j| m[(k, j)] * ddq[j]).sum();
+            let lagrange = mddq + c + g;
+            let tau = rnea_checked(&robot, &mut ws, &q, &dq, &ddq, None).unwrap();
+            assert!(
+                (lagrange - tau[k]).abs() < 1e-6 * (1.0 + tau[k].abs()),
+                "joint {k}: Lagrange {lagrange} vs RNEA {}",
+                tau[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn mass_matrix_is_the_rnea_inertia_part_and_forward_dynamics_inverts_rnea() {
+    let robot = common::irb1200();
+    let n = robot.dof();
+    let d = drive(n);
+    let mut ws = Workspace::new(&robot);
+    let mut rng = common::rng(3);
+    let zero = vec![0.0; n];
+    for _ in 0..100 {
+        let (q, dq, ddq) = common::random_state(&robot, &mut rng);
+        let m = mass_matrix(&robot, &q, Some(&d.rotor_inertia));
+        let no_friction = DriveTerms {
+            viscous: zero.clone(),
+            coulomb: zero.clone(),
+            ..d.clone()
+        };
+        let mut bias = vec![0.0; n];
+        rnea(
+            &robot,
+            &mut ws,
+            &q,
+            &zero,
+            &zero,
+            Some(&no_friction),
+            &mut bias,
+        );
+        for j in 0..n {
+            let mut e = zero.clone();
+            e[j] = 1.0;
+            let mut col = vec![0.0; n];
+            rnea(&robot, &mut ws, &q, &zero, &e, Some(&no_friction), &mut col);
+            for i in 0..n {
+                assert!((col[i] - bias[i] - m[(i, j)]).abs() < 1e-12);
+            }
+        }
+        let tau = rnea_checked(&robot, &mut ws, &q, &dq, &ddq, Some(&d)).unwrap();
+        let back = forward_dynamics(&robot, &mut ws, &q, &dq, &tau, Some(&d)).unwrap();
+        for i in 0..n {
+            assert!(
+                (back[i] - ddq[i]).abs() < 1e-9,
+                "joint {i}: {} vs {}",
+                back[i],
+                ddq[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn power_balance_equals_energy_rate() {
+    // d/dt (KE + PE) = tau . dq without friction, along q(t) = q0 + a sin(t), by central
+    // differences in time.
+    let robot = common::irb1200();
+    let n = robot.dof();
+    let mut ws = Workspace::new(&robot);
+    let ia = drive(n).rotor_inertia;
+    let terms = DriveTerms {
+        rotor_inertia: ia.clone(),
+        ..DriveTerms::zero(n)
+    };
+    let traj = |t: f64| {
+        let q: Vec<f64> = (0..n)
+            .map(|i| 0.2 * i as f64 + 0.5 * (t * (1.0 + 0.3 * i as f64)).sin())
+            .collect();
+        let dq: Vec<f64> = (0..n)
+            .map(|i| 0.5 * (1.0 + 0.3 * i as f64) * (t * (1.0 + 0.3 * i as f64)).cos())
+            .collect();
+        let ddq: Vec<f64> = (0..n)
+            .map(|i| -0.5 * (1.0 + 0.3 * i as f64).powi(2) * (t * (1.0 + 0.3 * i as f64)).sin())
+            .collect();
+        (q, dq, ddq)
+    };
+    let energy = |t: f64| {
+        let (q, dq, _) = traj(t);
+        kinetic_energy(&robot, &q, &dq, Some(&ia)) + potential_energy(&robot, &q, &GRAVITY)
+    };
+    for k in 0..20 {
+        let t = 0.37 * k as f64;
+        let (q, dq, ddq) = traj(t);
+        let tau = rnea_checked(&robot, &mut ws, &q, &dq, &ddq, Some(&terms)).unwrap();
+        let power: f64 = tau.iter().zip(&dq).map(|(a, b)| a * b).sum();
+        let h = 1e-5;
+        let rate = (energy(t + h) - energy(t - h)) / (2.0 * h);
+        assert!(
+            (power - rate).abs() < 1e-6 * (1.0 + power.abs()),
+            "t {t}: {power} W vs {rate} W"
+        );
+    }
+}
+
+#[test]
+fn home_flange_position_matches_data_sheet() {
+    let robot = common::irb1200();
+    let mut poses = vec![nalgebra::Isometry3::identity(); 6];
+    link_poses(&robot, &[0.0; 6], &mut poses);
+    let flange = poses[5] * robot.flange();
+    let p = flange.translation.vector;
+    assert!(
+        (p - nalgebra::Vector3::new(0.433, 0.0, 0.7911)).norm() < 1e-12,
+        "{p}"
+    );
+    // tool z along +x of the base, tool x along -z (irb1200.md 1.2)
+    let r = flange.rotation.to_rotation_matrix();
+    assert!((r.matrix().column(2) - nalgebra::Vector3::x()).norm() < 1e-12);
+    assert!((r.matrix().column(0) + nalgebra::Vector3::z()).norm() < 1e-12);
+}
+
+#[test]
+fn bad_state_lengths_and_nan_are_errors() {
+    let robot = common::irb1200();
+    let mut ws = Workspace::new(&robot);
+    let e = rnea_checked(&robot, &mut ws, &[0.0; 5], &[0.0; 6], &[0.0; 6], None).unwrap_err();
+    assert!(e.to_string().contains("q has 5 values"), "{e}");
+    let e = rnea_checked(
+        &robot,
+        &mut ws,
+        &[0.0; 6],
+        &[0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0],
+        &[0.0; 6],
+        None,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("dq[2]"), "{e}");
+}
