@@ -3,11 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use powertwin::model::builtin::{self, IDEAL_DRIVE, IRB1200_DRIVE, IRB1200_URDF};
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::{Payload, attach};
-use powertwin::model::{Friction, Joint, JointLimits, Link, RigidInertia, Robot};
+use powertwin::model::urdf::{LoadOptions, load_file, load_str};
+use powertwin::model::{RigidInertia, Robot};
 use powertwin::{Error, Result};
 
 fn repo(rel: &str) -> PathBuf {
@@ -31,66 +32,9 @@ fn inertial(l: &urdf_rs::Link) -> RigidInertia {
     local.transformed(&pose(&l.inertial.origin))
 }
 
-fn link(urdf: &urdf_rs::Robot, name: &str) -> Link {
-    let l = urdf.links.iter().find(|l| l.name == name).expect("link");
-    Link {
-        name: name.to_string(),
-        inertia: inertial(l),
-        urdf_pose: Isometry3::identity(),
-        visuals: Vec::new(),
-        collisions: Vec::new(),
-    }
-}
-
-/// The IRB 1200 as a `Robot` built by hand from `urdf_rs` (URDF link frames, not the MDH frames
-/// of the real loader; enough for drive and payload tests, which need names, friction, link
-/// inertias and the flange pose).
+/// The IRB 1200 from the embedded URDF.
 fn irb1200() -> Robot {
-    let urdf = urdf_rs::read_from_string(IRB1200_URDF).expect("URDF parses");
-    let revolute: Vec<&urdf_rs::Joint> = urdf
-        .joints
-        .iter()
-        .filter(|j| j.joint_type == urdf_rs::JointType::Revolute)
-        .collect();
-    let joints = revolute
-        .iter()
-        .map(|j| Joint {
-            name: j.name.clone(),
-            origin: pose(&j.origin),
-            limits: JointLimits {
-                lower: j.limit.lower,
-                upper: j.limit.upper,
-                velocity: j.limit.velocity,
-                effort: Some(j.limit.effort),
-            },
-            friction: j
-                .dynamics
-                .as_ref()
-                .map(|d| Friction {
-                    coulomb: d.friction,
-                    viscous: d.damping,
-                })
-                .unwrap_or_default(),
-        })
-        .collect();
-    let links = revolute
-        .iter()
-        .map(|j| link(&urdf, &j.child.link))
-        .collect();
-    let tool0 = urdf
-        .joints
-        .iter()
-        .find(|j| j.child.link == "tool0")
-        .expect("tool0");
-    Robot::new(
-        urdf.name.clone(),
-        link(&urdf, "base_link"),
-        joints,
-        links,
-        pose(&tool0.origin),
-        "tool0",
-    )
-    .expect("valid robot")
+    load_str(IRB1200_URDF, &LoadOptions::default()).expect("IRB 1200 URDF loads")
 }
 
 fn drive(text: &str) -> Result<Drive> {
@@ -560,24 +504,44 @@ fn combined_payload_is_the_rigid_union() {
     assert_eq!(load.combined(&tool).tcp, tool.tcp);
 }
 
+/// Checks `attach` on any robot: the last link gains the payload, expressed through the flange.
+fn check_attach(robot: &Robot, payload: &Payload) {
+    let in_last = payload.in_last_link_frame(robot);
+    let com = (robot.flange() * Point3::from(payload.inertia.com)).coords;
+    assert!((in_last.com - com).norm() < 1e-14);
+    assert!((in_last.mass - payload.inertia.mass).abs() < 1e-15);
+    let n = robot.dof();
+    let loaded = attach(robot, payload).unwrap();
+    let before = robot.links()[n - 1].inertia;
+    let after = loaded.links()[n - 1].inertia;
+    assert!((after.mass - (before.mass + payload.inertia.mass)).abs() < 1e-12);
+    let c = (before.com * before.mass + com * payload.inertia.mass) / after.mass;
+    assert!((after.com - c).norm() < 1e-12);
+    assert_eq!(loaded.links()[..n - 1], robot.links()[..n - 1]);
+    assert_eq!(loaded.joints(), robot.joints());
+}
+
 #[test]
 fn attach_adds_the_payload_to_the_last_link() {
     let robot = irb1200();
     let tool = builtin::payload("tool").unwrap();
-    // tool0 z = link_6 x: the tool COM 0.06 m along the flange normal is at x = 0.06 in link_6.
-    let in_link6 = tool.in_last_link_frame(&robot);
-    assert!((in_link6.com - Vector3::new(0.06, 0.0, 0.0)).norm() < 1e-15);
-    assert!((in_link6.inertia_com[(0, 0)] - 1.056e-3).abs() < 1e-15);
-    assert!((in_link6.inertia_com[(2, 2)] - 2.112e-3).abs() < 1e-15);
-
-    let loaded = attach(&robot, &tool).unwrap();
-    let before = robot.links()[5].inertia;
-    let after = loaded.links()[5].inertia;
-    assert!((after.mass - (before.mass + 1.32)).abs() < 1e-12);
-    let com = (before.com * before.mass + in_link6.com * 1.32) / after.mass;
-    assert!((after.com - com).norm() < 1e-12);
-    assert_eq!(loaded.links()[..5], robot.links()[..5]);
-    assert_eq!(loaded.joints(), robot.joints());
+    // The flange normal (tool z) is the axis of joint 6 (z of the last link frame), so the tool
+    // COM lies 0.06 m beyond the flange on that axis and the tool's axial moment Izz stays Izz.
+    let in_last = tool.in_last_link_frame(&robot);
+    let flange = robot.flange();
+    assert!((flange.rotation * Vector3::z() - Vector3::z()).norm() < 1e-12);
+    let offset = in_last.com - flange.translation.vector;
+    assert!((offset - Vector3::new(0.0, 0.0, 0.06)).norm() < 1e-12);
+    assert!((in_last.inertia_com[(2, 2)] - 1.056e-3).abs() < 1e-12);
+    check_attach(&robot, &tool);
+    check_attach(
+        &robot,
+        &tool.combined(&builtin::payload("load_4kg").unwrap()),
+    );
+    // UR5: tool0 is offset from the last link frame's origin.
+    let ur5 = load_file(&repo("tests/data/ur5.urdf"), &LoadOptions::default()).unwrap();
+    assert!(ur5.flange().translation.vector.norm() > 0.05);
+    check_attach(&ur5, &tool);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -663,4 +627,22 @@ fn panda_fixture_has_seven_revolute_joints_and_prismatic_fingers() {
     // Joint 4's range excludes q = 0.
     let j4 = r.joints.iter().find(|j| j.name == "panda_joint4").unwrap();
     assert!(j4.limit.upper < 0.0);
+}
+
+#[test]
+fn fixtures_load_as_serial_robots() {
+    let ur5 = load_file(&repo("tests/data/ur5.urdf"), &LoadOptions::default()).unwrap();
+    assert_eq!(ur5.dof(), 6);
+    assert_eq!(ur5.flange_name(), "tool0");
+    let fingers = LoadOptions {
+        lock: vec!["panda_finger_joint1".into(), "panda_finger_joint2".into()],
+    };
+    let panda = load_file(&repo("tests/data/panda.urdf"), &fingers).unwrap();
+    assert_eq!(panda.dof(), 7);
+    // Unlocked prismatic fingers are refused, naming a finger joint.
+    let e = load_file(&repo("tests/data/panda.urdf"), &LoadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("panda_finger_joint"), "{e}");
+    // Drive files work for any robot: the ideal and URDF drives have one entry per joint.
+    assert_eq!(Drive::ideal(&panda).joints().len(), 7);
+    assert_eq!(Drive::from_urdf(&ur5).coulomb(), [0.0; 6]);
 }
