@@ -14,6 +14,7 @@
 
 pub mod dynamics;
 pub mod error;
+pub mod io;
 pub mod kinematics;
 pub mod model;
 

@@ -22,6 +22,7 @@ pub mod rnea;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::model::Robot;
+use crate::model::drive::Drive;
 pub use layout::ParamLayout;
 
 /// Gravity in the base frame, m/s^2.
@@ -62,6 +63,16 @@ impl DriveTerms {
     #[inline]
     pub fn torque(&self, i: usize, dq: f64, ddq: f64) -> f64 {
         self.rotor_inertia[i] * ddq + self.viscous[i] * dq + self.coulomb[i] * sign(dq)
+    }
+}
+
+impl From<&Drive> for DriveTerms {
+    fn from(d: &Drive) -> Self {
+        DriveTerms {
+            rotor_inertia: d.rotor_inertia(),
+            viscous: d.viscous(),
+            coulomb: d.coulomb(),
+        }
     }
 }
 

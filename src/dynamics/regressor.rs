@@ -32,10 +32,10 @@ pub fn regressor(
     for i in 0..n {
         let mut u = Vector3::z();
         let mut v = Vector3::zeros();
-        for j in i..n {
+        for (j, cj) in chain.iter().enumerate().skip(i) {
             if j > i {
                 let r = &ws.rot[j];
-                let p = chain[j].pos;
+                let p = cj.pos;
                 v = r.tr_mul(&(v + u.cross(&p)));
                 u = r.tr_mul(&u);
             }
