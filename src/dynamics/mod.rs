@@ -88,7 +88,9 @@ pub fn sign(x: f64) -> f64 {
     }
 }
 
-/// Scratch memory for the recursive algorithms, sized for one robot. Reuse it across calls.
+/// Scratch memory for the recursive algorithms, sized for a number of joints, plus the
+/// gravity vector. It holds no model data, so it may serve any robot with the same number
+/// of joints. Reuse it across calls.
 #[derive(Debug, Clone)]
 pub struct Workspace {
     /// Rotation of frame i in frame i-1 at the current q.
@@ -99,12 +101,6 @@ pub struct Workspace {
     pub(crate) dw: Vec<Vector3<f64>>,
     /// Linear acceleration of origin i minus gravity, in frame i, m/s^2.
     pub(crate) a: Vec<Vector3<f64>>,
-    /// Link inertia about the frame origin, frame i, kg m^2.
-    pub(crate) inertia_o: Vec<Matrix3<f64>>,
-    /// First moment m c, frame i, kg m.
-    pub(crate) mc: Vec<Vector3<f64>>,
-    /// Mass, kg.
-    pub(crate) mass: Vec<f64>,
     /// `-gravity`, expressed in the base frame, m/s^2.
     pub(crate) a0: Vector3<f64>,
 }
@@ -118,18 +114,11 @@ impl Workspace {
     /// Workspace for `robot` under gravity `g` (base frame, m/s^2).
     pub fn with_gravity(robot: &Robot, g: Vector3<f64>) -> Self {
         let n = robot.dof();
-        let links = robot.links();
         Workspace {
             rot: vec![Matrix3::identity(); n],
             w: vec![Vector3::zeros(); n],
             dw: vec![Vector3::zeros(); n],
             a: vec![Vector3::zeros(); n],
-            inertia_o: links.iter().map(|l| l.inertia.inertia_origin()).collect(),
-            mc: links
-                .iter()
-                .map(|l| l.inertia.com * l.inertia.mass)
-                .collect(),
-            mass: links.iter().map(|l| l.inertia.mass).collect(),
             a0: -g,
         }
     }
@@ -139,6 +128,11 @@ impl Workspace {
     #[inline]
     pub(crate) fn forward(&mut self, robot: &Robot, q: &[f64], dq: &[f64], ddq: &[f64]) {
         let chain = robot.chain();
+        assert_eq!(
+            self.w.len(),
+            chain.len(),
+            "workspace sized for another number of joints"
+        );
         let mut w = Vector3::zeros();
         let mut dw = Vector3::zeros();
         let mut a = self.a0;

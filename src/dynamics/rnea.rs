@@ -31,9 +31,9 @@ pub fn rnea(
     let mut n_next = Vector3::zeros();
     for i in (0..n).rev() {
         let (w, dw, a) = (ws.w[i], ws.dw[i], ws.a[i]);
-        let io = &ws.inertia_o[i];
-        let mc = ws.mc[i];
-        let mut f = a * ws.mass[i] + dw.cross(&mc) + w.cross(&w.cross(&mc));
+        let link = &chain[i];
+        let (io, mc) = (&link.inertia_o, link.mc);
+        let mut f = a * link.mass + dw.cross(&mc) + w.cross(&w.cross(&mc));
         let mut m = io * dw + w.cross(&(io * w)) + mc.cross(&a);
         if i + 1 < n {
             let r = &ws.rot[i + 1];

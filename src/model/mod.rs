@@ -123,13 +123,31 @@ pub struct Link {
     pub collisions: Vec<Shape>,
 }
 
-/// Joint transform cached for the hot paths: rotation and translation of `origin`.
+/// Joint transform and link mass data cached for the hot paths.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct ChainJoint {
     /// Rotation of frame i (at q = 0) in frame i-1.
     pub rot: Matrix3<f64>,
     /// Origin of frame i in frame i-1, m.
     pub pos: Vector3<f64>,
+    /// Link inertia about the frame origin, frame i, kg m^2.
+    pub inertia_o: Matrix3<f64>,
+    /// First moment m c, frame i, kg m.
+    pub mc: Vector3<f64>,
+    /// Mass, kg.
+    pub mass: f64,
+}
+
+impl ChainJoint {
+    fn new(joint: &Joint, link: &Link) -> Self {
+        ChainJoint {
+            rot: *joint.origin.rotation.to_rotation_matrix().matrix(),
+            pos: joint.origin.translation.vector,
+            inertia_o: link.inertia.inertia_origin(),
+            mc: link.inertia.com * link.inertia.mass,
+            mass: link.inertia.mass,
+        }
+    }
 }
 
 /// A fixed-base serial robot with `n` revolute joints, ordered root to tip.
@@ -203,10 +221,8 @@ impl Robot {
         }
         let chain = joints
             .iter()
-            .map(|j| ChainJoint {
-                rot: *j.origin.rotation.to_rotation_matrix().matrix(),
-                pos: j.origin.translation.vector,
-            })
+            .zip(&links)
+            .map(|(j, l)| ChainJoint::new(j, l))
             .collect();
         Ok(Robot {
             name: name.into(),
@@ -277,6 +293,7 @@ impl Robot {
         let mut r = self.clone();
         inertia.validate(&format!("link '{}'", r.links[i].name))?;
         r.links[i].inertia = inertia;
+        r.chain[i] = ChainJoint::new(&r.joints[i], &r.links[i]);
         Ok(r)
     }
 
