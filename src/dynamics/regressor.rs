@@ -26,10 +26,15 @@ pub fn regressor(
     let n = robot.dof();
     debug_assert!(w.nrows() == n && w.ncols() == layout.len());
     ws.forward(robot, q, dq, ddq);
-    w.fill(0.0);
     let chain = robot.chain();
     let per = layout.per_link();
+    // Column-major storage: entry (i, c) is data[c * n + i].
+    let data = w.as_mut_slice();
     for i in 0..n {
+        // Links before joint i do not act on it.
+        for c in 0..i * per {
+            data[c * n + i] = 0.0;
+        }
         let mut u = Vector3::z();
         let mut v = Vector3::zeros();
         for (j, cj) in chain.iter().enumerate().skip(i) {
@@ -56,17 +61,21 @@ pub fn regressor(
                 v.dot(&a),
             ];
             for (k, val) in vals.into_iter().enumerate() {
-                w[(i, col + k)] = val;
+                data[(col + k) * n + i] = val;
             }
-        }
-        if let Some(c) = layout.coulomb_col(i) {
-            w[(i, c)] = sign(dq[i]);
-        }
-        if let Some(c) = layout.viscous_col(i) {
-            w[(i, c)] = dq[i];
-        }
-        if let Some(c) = layout.armature_col(i) {
-            w[(i, c)] = ddq[i];
+            // Drive-term columns of link j act on joint j only.
+            if per > 10 {
+                let on = j == i;
+                let mut c = col + 10;
+                if layout.friction {
+                    data[c * n + i] = if on { sign(dq[i]) } else { 0.0 };
+                    data[(c + 1) * n + i] = if on { dq[i] } else { 0.0 };
+                    c += 2;
+                }
+                if layout.armature {
+                    data[c * n + i] = if on { ddq[i] } else { 0.0 };
+                }
+            }
         }
     }
 }
