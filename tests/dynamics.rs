@@ -249,3 +249,58 @@ fn bad_state_lengths_and_nan_are_errors() {
     .unwrap_err();
     assert!(e.to_string().contains("dq[2]"), "{e}");
 }
+
+mod properties {
+    use super::*;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+    use powertwin::model::RigidInertia;
+    use proptest::prelude::*;
+
+    /// A physically valid body: mass, COM, principal moments obeying the triangle
+    /// inequality, and a rotation of the principal axes.
+    fn body() -> impl Strategy<Value = RigidInertia> {
+        (
+            0.1f64..20.0,
+            prop::array::uniform3(-0.3f64..0.3),
+            prop::array::uniform2(0.001f64..0.5),
+            0.05f64..0.95,
+            prop::array::uniform3(-3.0f64..3.0),
+        )
+            .prop_map(|(m, c, [a, b], t, rpy)| {
+                // Third moment between |a - b| and a + b (triangle inequality).
+                let cz = (a - b).abs() + t * (a + b - (a - b).abs());
+                let principal = RigidInertia::new(m, Vector3::zeros(), [a, b, cz, 0.0, 0.0, 0.0]);
+                principal.transformed(&Isometry3::from_parts(
+                    Translation3::new(c[0], c[1], c[2]),
+                    UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+                ))
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn regressor_is_exact_for_any_valid_inertias(
+            bodies in prop::collection::vec(body(), 6),
+            state in prop::array::uniform18(-2.0f64..2.0),
+        ) {
+            let mut robot = common::irb1200();
+            for (i, b) in bodies.iter().enumerate() {
+                prop_assume!(b.validate("b").is_ok());
+                robot = robot.with_link_inertia(i, *b).unwrap();
+            }
+            let (q, rest) = state.split_at(6);
+            let (dq, ddq) = rest.split_at(6);
+            let layout = ParamLayout::new(&robot, false, false);
+            let theta = DVector::from_vec(layout.theta(&robot, &DriveTerms::zero(6)));
+            let mut ws = Workspace::new(&robot);
+            let tau = rnea_checked(&robot, &mut ws, q, dq, ddq, None).unwrap();
+            let mut w = DMatrix::zeros(6, layout.len());
+            regressor(&robot, &mut ws, &layout, q, dq, ddq, &mut w);
+            let wt = &w * &theta;
+            for i in 0..6 {
+                prop_assert!((wt[i] - tau[i]).abs() < 1e-10 * (1.0 + tau[i].abs()));
+            }
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! The `powertwin` binary as a user runs it: outputs, JSON fields, and clear errors.
+
+use std::process::Command;
+
+fn powertwin(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_powertwin"))
+        .args(args)
+        .current_dir(std::env::temp_dir())
+        .output()
+        .expect("binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("powertwin-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn model_works_from_any_directory_and_prints_table_1() {
+    let (code, out, err) = powertwin(&["model", "--mdh", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 7);
+    assert!((rows[0]["d"].as_f64().unwrap() - 0.3991).abs() < 1e-12);
+    assert!((rows[3]["a"].as_f64().unwrap() - 0.042).abs() < 1e-12);
+    assert!((rows[6]["theta"].as_f64().unwrap() - std::f64::consts::PI).abs() < 1e-12);
+    let (code, out, _) = powertwin(&["model", "--json"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["dof"], 6);
+    assert_eq!(v["base_params"]["inertial"], 36);
+    assert_eq!(v["base_params"]["with_friction"], 48);
+    assert_eq!(v["base_params"]["with_friction_and_armature"], 52);
+    assert!((v["links"][1]["standard"]["MX"].as_f64().unwrap() - 2.95).abs() < 0.01);
+}
+
+#[test]
+fn base_params_json_has_the_documented_fields() {
+    let (code, out, err) = powertwin(&["base-params", "--friction", "--armature", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["standard"], 78);
+    assert_eq!(v["base"], 52);
+    assert_eq!(v["independent"].as_array().unwrap().len(), 52);
+    assert_eq!(v["relations"].as_array().unwrap().len(), 52);
+    assert_eq!(v["independent"][0], "ZZ1R");
+}
+
+#[test]
+fn dynamics_writes_gravity_torques_and_names_bad_rows() {
+    let input = tmp("states.csv");
+    let output = tmp("torques.csv");
+    let header = "t,q1,q2,q3,q4,q5,q6,dq1,dq2,dq3,dq4,dq5,dq6,ddq1,ddq2,ddq3,ddq4,ddq5,ddq6";
+    std::fs::write(&input, format!("{header}\n0{}\n", ",0".repeat(18))).unwrap();
+    let args = [
+        "dynamics",
+        "--input",
+        input.to_str().unwrap(),
+        "--output",
+        output.to_str().unwrap(),
+    ];
+    let (code, _, err) = powertwin(&args);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&output).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "tau1_Nm,tau2_Nm,tau3_Nm,tau4_Nm,tau5_Nm,tau6_Nm"
+    );
+    let tau: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    // Gravity load at q = 0 (irb1200.md section 2: 13.4 and 13.3 N m on axes 2 and 3).
+    assert!(
+        (tau[1].abs() - 13.4).abs() < 0.05 && (tau[2].abs() - 13.3).abs() < 0.05,
+        "{tau:?}"
+    );
+    std::fs::write(
+        &input,
+        format!(
+            "{header}\n0{}\n1{}\n",
+            ",0".repeat(18),
+            ",0".repeat(17) + ",nan"
+        ),
+    )
+    .unwrap();
+    let (code, _, err) = powertwin(&args);
+    assert_eq!(code, 1);
+    assert!(err.contains("row 3") && err.contains("ddq6"), "{err}");
+    std::fs::write(&input, "q1,q2\n0,0\n").unwrap();
+    let (code, _, err) = powertwin(&args);
+    assert_eq!(code, 1);
+    assert!(err.contains("missing column 'q3_rad' or 'q3'"), "{err}");
+}
+
+#[test]
+fn bad_robot_files_are_clear_errors_not_panics() {
+    let bad = tmp("bad.urdf");
+    std::fs::write(&bad, "<robot name=\"x\"><link name=\"a\"></robot>").unwrap();
+    let (code, _, err) = powertwin(&["model", "--robot", bad.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("malformed URDF") && !err.contains("panicked"),
+        "{err}"
+    );
+    let (code, _, err) = powertwin(&["model", "--robot", "/nonexistent/robot.urdf"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("/nonexistent/robot.urdf"), "{err}");
+    let bad_drive = tmp("bad.drive.toml");
+    std::fs::write(
+        &bad_drive,
+        "[[joint]]\nname = \"joint_1\"\nefficiency = 2\n",
+    )
+    .unwrap();
+    let (code, _, err) = powertwin(&[
+        "base-params",
+        "--friction",
+        "--drive",
+        bad_drive.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("bad.drive.toml") && !err.contains("panicked"),
+        "{err}"
+    );
+}
+
+#[test]
+fn reproduce_says_what_is_missing_and_fails() {
+    let (code, _, err) = powertwin(&["reproduce"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("not built yet"), "{err}");
+}
