@@ -1,0 +1,162 @@
+//! Numerical inverse kinematics for any serial chain: damped least squares
+//! (Levenberg–Marquardt with adaptive damping).
+//!
+//! The residual is the 6-vector `e = [p_target - p; log(R_target R^T)]` of the TCP in the base
+//! frame (frame 0 of the model): position error in m, orientation error as a rotation vector
+//! in rad. A step solves `(J^T J + lambda I) dq = J^T e` with the geometric Jacobian `J`
+//! ([`crate::kinematics::jacobian`]), clamps `q + dq` into the position limits and is kept
+//! only if it lowers `|e|^2`; `lambda` is divided by 10 after an accepted step and multiplied
+//! by 10 after a rejected one. Joint angles are in rad.
+
+use nalgebra::{Isometry3, Matrix6xX, UnitQuaternion, Vector3, Vector6};
+
+use crate::error::{Error, Result};
+use crate::kinematics::fk::tcp_pose;
+use crate::kinematics::jacobian::geometric_into;
+use crate::model::Robot;
+
+/// Smallest damping used (Gauss–Newton steps in practice).
+const MIN_DAMPING: f64 = 1e-12;
+/// Damping beyond which no step lowers the error any more: the solver is stuck.
+const MAX_DAMPING: f64 = 1e12;
+
+/// Settings of [`solve`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DlsOptions {
+    /// Maximum number of steps tried (accepted or rejected); each costs one FK evaluation.
+    pub max_iterations: usize,
+    /// Converged when the TCP position error is below this, m.
+    pub position_tolerance: f64,
+    /// ... and the TCP orientation error is below this, rad.
+    pub orientation_tolerance: f64,
+    /// Initial damping `lambda` (units of `J^T J`: m^2 per rad^2 for the position rows,
+    /// dimensionless for the orientation rows).
+    pub initial_damping: f64,
+}
+
+impl Default for DlsOptions {
+    /// 500 steps, 1e-10 m, 1e-10 rad, initial damping 1e-3.
+    fn default() -> Self {
+        DlsOptions {
+            max_iterations: 500,
+            position_tolerance: 1e-10,
+            orientation_tolerance: 1e-10,
+            initial_damping: 1e-3,
+        }
+    }
+}
+
+/// Joint angles (rad, within the position limits) that put the TCP at `target_tcp`, found by
+/// damped least squares started at `seed` (rad; clamped into the limits first). `target_tcp`
+/// is the TCP pose in the base frame, `tcp` the TCP pose in the flange frame (m).
+///
+/// The result is a local solution, usually the one nearest the seed.
+///
+/// # Errors
+/// [`Error::InvalidInput`] for a seed of the wrong length or non-finite inputs;
+/// [`Error::Unreachable`] when the error does not reach the tolerances within
+/// `opts.max_iterations` steps or no step lowers it any more (pose out of reach, blocked by a
+/// joint limit, or a seed in another basin); the message gives the final errors.
+pub fn solve(
+    robot: &Robot,
+    target_tcp: &Isometry3<f64>,
+    tcp: &Isometry3<f64>,
+    seed: &[f64],
+    opts: &DlsOptions,
+) -> Result<Vec<f64>> {
+    robot.check_len(seed, "seed")?;
+    ensure_pose_finite(target_tcp, "target TCP pose")?;
+    ensure_pose_finite(tcp, "TCP offset")?;
+    let n = robot.dof();
+    let limits: Vec<(f64, f64)> = robot
+        .joints()
+        .iter()
+        .map(|j| (j.limits.lower, j.limits.upper))
+        .collect();
+    let mut q: Vec<f64> = seed
+        .iter()
+        .zip(&limits)
+        .map(|(&s, &(lo, hi))| s.clamp(lo, hi))
+        .collect();
+    let mut trial = q.clone();
+    let mut jac = Matrix6xX::zeros(n);
+    let mut err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
+    let mut lambda = opts.initial_damping;
+    let mut steps = 0;
+    while !converged(&err, opts) && steps < opts.max_iterations && lambda <= MAX_DAMPING {
+        steps += 1;
+        let jt = jac.transpose();
+        let mut a = &jt * &jac;
+        for i in 0..n {
+            a[(i, i)] += lambda;
+        }
+        let Some(chol) = a.cholesky() else {
+            lambda *= 10.0;
+            continue;
+        };
+        let dq = chol.solve(&(&jt * err));
+        for ((t, (&qi, &d)), &(lo, hi)) in
+            trial.iter_mut().zip(q.iter().zip(dq.iter())).zip(&limits)
+        {
+            *t = (qi + d).clamp(lo, hi);
+        }
+        let trial_err = pose_error(target_tcp, &tcp_pose(robot, &trial, tcp));
+        if trial_err.norm_squared() < err.norm_squared() {
+            std::mem::swap(&mut q, &mut trial);
+            err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
+            lambda = (lambda * 0.1).max(MIN_DAMPING);
+        } else {
+            lambda *= 10.0;
+        }
+    }
+    if converged(&err, opts) {
+        return Ok(q);
+    }
+    Err(Error::Unreachable(format!(
+        "damped least squares did not converge from the seed in {steps} steps: position error \
+         {:.3e} m, orientation error {:.3e} rad (tolerances {:.1e} m, {:.1e} rad); the pose may \
+         be out of reach or blocked by a joint limit, or the seed too far from a solution",
+        err.fixed_rows::<3>(0).norm(),
+        err.fixed_rows::<3>(3).norm(),
+        opts.position_tolerance,
+        opts.orientation_tolerance
+    )))
+}
+
+fn converged(err: &Vector6<f64>, opts: &DlsOptions) -> bool {
+    err.fixed_rows::<3>(0).norm() < opts.position_tolerance
+        && err.fixed_rows::<3>(3).norm() < opts.orientation_tolerance
+}
+
+/// `[p_target - p; log(R_target R^T)]` in the base frame (m, rad).
+fn pose_error(target: &Isometry3<f64>, current: &Isometry3<f64>) -> Vector6<f64> {
+    let dp = target.translation.vector - current.translation.vector;
+    let dr = rotation_vector(&(target.rotation * current.rotation.inverse()));
+    Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z)
+}
+
+/// Rotation vector (axis times angle in [0, pi], rad) of a unit quaternion, accurate for tiny
+/// angles (nalgebra's `scaled_axis` goes through `acos` and loses them below about 1e-8).
+fn rotation_vector(r: &UnitQuaternion<f64>) -> Vector3<f64> {
+    let (w, v) = if r.w < 0.0 {
+        (-r.w, -r.imag())
+    } else {
+        (r.w, r.imag())
+    };
+    let s = v.norm();
+    if s == 0.0 {
+        return Vector3::zeros();
+    }
+    v * (2.0 * s.atan2(w) / s)
+}
+
+/// [`Error::InvalidInput`] unless every coordinate of `pose` is finite; `what` names it.
+pub(crate) fn ensure_pose_finite(pose: &Isometry3<f64>, what: &str) -> Result<()> {
+    let ok = pose.translation.vector.iter().all(|v| v.is_finite())
+        && pose.rotation.coords.iter().all(|v| v.is_finite());
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::InvalidInput(format!("{what} is not finite: {pose}")))
+    }
+}
