@@ -1,5 +1,6 @@
 //! Per-sample cost of the core algorithms on the 6-joint IRB 1200 (`cargo bench --bench core`).
-//! Targets (issue 2): RNEA <= 0.6 us, regressor <= 1.2 us on the 2-core reference machine.
+//! Targets (issue 2): RNEA <= 0.6 us, regressor <= 1.2 us on the 2-core reference machine;
+//! FK, Jacobian and IK are reported alongside.
 
 use std::hint::black_box;
 
@@ -8,6 +9,9 @@ use nalgebra::DMatrix;
 use powertwin::dynamics::regressor::regressor;
 use powertwin::dynamics::rnea::rnea;
 use powertwin::dynamics::{DriveTerms, ParamLayout, Workspace};
+use powertwin::kinematics::fk::flange_pose;
+use powertwin::kinematics::ik::Opw;
+use powertwin::kinematics::jacobian::geometric_into;
 use powertwin::model::builtin;
 use powertwin::model::urdf::{LoadOptions, load_str};
 
@@ -75,6 +79,23 @@ fn bench(c: &mut Criterion) {
                 &mut w,
             )
         })
+    });
+    c.bench_function("fk_flange", |b| {
+        b.iter(|| flange_pose(&robot, black_box(&q)))
+    });
+    let tcp = nalgebra::Isometry3::translation(0.0, 0.0, 0.12);
+    let mut jac = nalgebra::Matrix6xX::zeros(n);
+    c.bench_function("jacobian", |b| {
+        b.iter(|| geometric_into(&robot, black_box(&q), &tcp, &mut jac))
+    });
+    let opw = Opw::from_robot(&robot).expect("the IRB 1200 is of the OPW class");
+    let target = flange_pose(&robot, &q);
+    c.bench_function("ik_all_solutions", |b| {
+        b.iter(|| opw.solve_all(black_box(&target)))
+    });
+    let target_tcp = target * tcp;
+    c.bench_function("ik_nearest", |b| {
+        b.iter(|| opw.solve_nearest(black_box(&target_tcp), &tcp, black_box(&q)))
     });
 }
 

@@ -5,9 +5,7 @@
 mod common;
 
 use nalgebra::{DMatrix, DVector};
-use powertwin::dynamics::crba::{
-    forward_dynamics, kinetic_energy, link_poses, mass_matrix, potential_energy,
-};
+use powertwin::dynamics::crba::{forward_dynamics, kinetic_energy, mass_matrix, potential_energy};
 use powertwin::dynamics::regressor::{regressor, to_power_rows, total_power_row};
 use powertwin::dynamics::rnea::{rnea, rnea_checked};
 use powertwin::dynamics::{DriveTerms, GRAVITY, ParamLayout, Workspace};
@@ -213,23 +211,6 @@ fn power_balance_equals_energy_rate() {
             "t {t}: {power} W vs {rate} W"
         );
     }
-}
-
-#[test]
-fn home_flange_position_matches_data_sheet() {
-    let robot = common::irb1200();
-    let mut poses = vec![nalgebra::Isometry3::identity(); 6];
-    link_poses(&robot, &[0.0; 6], &mut poses);
-    let flange = poses[5] * robot.flange();
-    let p = flange.translation.vector;
-    assert!(
-        (p - nalgebra::Vector3::new(0.433, 0.0, 0.7911)).norm() < 1e-12,
-        "{p}"
-    );
-    // tool z along +x of the base, tool x along -z (irb1200.md 1.2)
-    let r = flange.rotation.to_rotation_matrix();
-    assert!((r.matrix().column(2) - nalgebra::Vector3::x()).norm() < 1e-12);
-    assert!((r.matrix().column(0) + nalgebra::Vector3::z()).norm() < 1e-12);
 }
 
 #[test]

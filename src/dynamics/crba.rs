@@ -9,16 +9,8 @@ use nalgebra::{DMatrix, DVector, Isometry3, Point3};
 
 use crate::dynamics::{DriveTerms, Workspace, rnea::rnea};
 use crate::error::{Error, Result};
+use crate::kinematics::fk::link_poses;
 use crate::model::{RigidInertia, Robot};
-
-/// World (base-frame) poses of every link frame at `q`; `out` has `robot.dof()` entries.
-pub fn link_poses(robot: &Robot, q: &[f64], out: &mut [Isometry3<f64>]) {
-    let mut t = Isometry3::identity();
-    for (i, o) in out.iter_mut().enumerate() {
-        t *= robot.joint_transform(i, q[i]);
-        *o = t;
-    }
-}
 
 /// Joint-space mass matrix `M(q)` (kg m^2), plus `diag(Ia)` when `rotor_inertia` is given.
 pub fn mass_matrix(robot: &Robot, q: &[f64], rotor_inertia: Option<&[f64]>) -> DMatrix<f64> {
