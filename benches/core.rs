@@ -50,36 +50,26 @@ fn bench(c: &mut Criterion) {
             )
         })
     });
-    let layout = ParamLayout::new(&robot, false, false);
-    let mut w = DMatrix::zeros(n, layout.len());
-    c.bench_function("regressor", |b| {
-        b.iter(|| {
-            regressor(
-                &robot,
-                &mut ws,
-                &layout,
-                black_box(&q),
-                black_box(&dq),
-                black_box(&ddq),
-                &mut w,
-            )
-        })
-    });
-    let layout = ParamLayout::new(&robot, true, true);
-    let mut w = DMatrix::zeros(n, layout.len());
-    c.bench_function("regressor_friction_armature", |b| {
-        b.iter(|| {
-            regressor(
-                &robot,
-                &mut ws,
-                &layout,
-                black_box(&q),
-                black_box(&dq),
-                black_box(&ddq),
-                &mut w,
-            )
-        })
-    });
+    for (name, friction, armature) in [
+        ("regressor", false, false),
+        ("regressor_friction_armature", true, true),
+    ] {
+        let layout = ParamLayout::new(&robot, friction, armature);
+        let mut w = DMatrix::zeros(n, layout.len());
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                regressor(
+                    &robot,
+                    &mut ws,
+                    &layout,
+                    black_box(&q),
+                    black_box(&dq),
+                    black_box(&ddq),
+                    &mut w,
+                )
+            })
+        });
+    }
     c.bench_function("fk_flange", |b| {
         b.iter(|| flange_pose(&robot, black_box(&q)))
     });

@@ -6,15 +6,7 @@ mod common;
 use nalgebra::{DMatrix, DVector};
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions, random_stack};
 use powertwin::dynamics::regressor::regressor;
-use powertwin::dynamics::{DriveTerms, ParamLayout, Workspace};
-
-fn drive(n: usize) -> DriveTerms {
-    DriveTerms {
-        rotor_inertia: (0..n).map(|i| 0.3 / (i + 1) as f64).collect(),
-        viscous: (0..n).map(|i| 5.0 / (i + 1) as f64).collect(),
-        coulomb: (0..n).map(|i| 8.0 / (i + 1) as f64).collect(),
-    }
-}
+use powertwin::dynamics::{ParamLayout, Workspace};
 
 #[test]
 fn irb1200_counts_are_36_48_52() {
@@ -41,7 +33,7 @@ fn base_regressor_reproduces_torques_at_fresh_states() {
     let n = robot.dof();
     let layout = ParamLayout::new(&robot, true, true);
     let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
-    let theta = layout.theta(&robot, &drive(n));
+    let theta = layout.theta(&robot, &common::drive_terms(n));
     let theta_b = DVector::from_vec(bp.base_values(&theta).unwrap());
     let theta = DVector::from_vec(theta);
     let mut ws = Workspace::new(&robot);

@@ -10,19 +10,11 @@ use powertwin::dynamics::regressor::{regressor, to_power_rows, total_power_row};
 use powertwin::dynamics::rnea::{rnea, rnea_checked};
 use powertwin::dynamics::{DriveTerms, GRAVITY, ParamLayout, Workspace};
 
-fn drive(n: usize) -> DriveTerms {
-    DriveTerms {
-        rotor_inertia: (0..n).map(|i| 0.3 / (i + 1) as f64).collect(),
-        viscous: (0..n).map(|i| 5.0 / (i + 1) as f64).collect(),
-        coulomb: (0..n).map(|i| 8.0 / (i + 1) as f64).collect(),
-    }
-}
-
 #[test]
 fn regressor_times_theta_equals_rnea() {
     let robot = common::irb1200();
     let n = robot.dof();
-    let d = drive(n);
+    let d = common::drive_terms(n);
     let mut ws = Workspace::new(&robot);
     let mut rng = common::rng(1);
     for (friction, armature) in [(false, false), (true, false), (true, true)] {
@@ -127,7 +119,7 @@ fn rnea_matches_lagrangian_route() {
 fn mass_matrix_is_the_rnea_inertia_part_and_forward_dynamics_inverts_rnea() {
     let robot = common::irb1200();
     let n = robot.dof();
-    let d = drive(n);
+    let d = common::drive_terms(n);
     let mut ws = Workspace::new(&robot);
     let mut rng = common::rng(3);
     let zero = vec![0.0; n];
@@ -178,7 +170,7 @@ fn power_balance_equals_energy_rate() {
     let robot = common::irb1200();
     let n = robot.dof();
     let mut ws = Workspace::new(&robot);
-    let ia = drive(n).rotor_inertia;
+    let ia = common::drive_terms(n).rotor_inertia;
     let terms = DriveTerms {
         rotor_inertia: ia.clone(),
         ..DriveTerms::zero(n)

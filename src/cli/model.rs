@@ -7,7 +7,7 @@ use clap::Args;
 use powertwin::Robot;
 use powertwin::dynamics::ParamLayout;
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
-use powertwin::model::frames::mdh_table;
+use powertwin::model::frames::{MdhRow, mdh_table};
 use powertwin::model::inertia::STANDARD_NAMES;
 use serde_json::json;
 
@@ -49,30 +49,7 @@ pub fn run(args: &ModelArgs) -> Result<ExitCode> {
         if args.json {
             outln!(o, "{}", serde_json::to_string_pretty(&rows)?);
         } else {
-            outln!(
-                o,
-                "{:<6} {:>10} {:>12} {:>10} {:>12}",
-                "link",
-                "a_m",
-                "alpha_rad",
-                "d_m",
-                "theta_rad"
-            );
-            for (i, r) in rows.iter().enumerate() {
-                let name = if i < robot.dof() {
-                    (i + 1).to_string()
-                } else {
-                    "flange".into()
-                };
-                outln!(
-                    o,
-                    "{name:<6} {:>10.4} {:>12.6} {:>10.4} {:>12.6}",
-                    r.a,
-                    r.alpha,
-                    r.d,
-                    r.theta
-                );
-            }
+            o.push_str(&mdh_text(&robot, &rows));
         }
         super::emit(&o)?;
         return Ok(ExitCode::SUCCESS);
@@ -159,22 +136,8 @@ pub fn run(args: &ModelArgs) -> Result<ExitCode> {
     }
     match &mdh {
         Ok(rows) => {
-            outln!(o, "\nmodified DH (Craig): a_m alpha_rad d_m theta_rad");
-            for (i, r) in rows.iter().enumerate() {
-                let name = if i < robot.dof() {
-                    (i + 1).to_string()
-                } else {
-                    "flange".into()
-                };
-                outln!(
-                    o,
-                    "{name:<6} {:>10.4} {:>10.6} {:>10.4} {:>10.6}",
-                    r.a,
-                    r.alpha,
-                    r.d,
-                    r.theta
-                );
-            }
+            outln!(o, "\nmodified DH (Craig):");
+            o.push_str(&mdh_text(&robot, rows));
         }
         Err(e) => outln!(o, "\nmodified DH: not expressible ({e})"),
     }
@@ -203,6 +166,36 @@ pub fn run(args: &ModelArgs) -> Result<ExitCode> {
     );
     super::emit(&o)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The MDH table as text, one row per joint and a last row for the flange.
+fn mdh_text(robot: &Robot, rows: &[MdhRow]) -> String {
+    let mut o = String::new();
+    outln!(
+        o,
+        "{:<6} {:>10} {:>12} {:>10} {:>12}",
+        "link",
+        "a_m",
+        "alpha_rad",
+        "d_m",
+        "theta_rad"
+    );
+    for (i, r) in rows.iter().enumerate() {
+        let name = if i < robot.dof() {
+            (i + 1).to_string()
+        } else {
+            "flange".into()
+        };
+        outln!(
+            o,
+            "{name:<6} {:>10.4} {:>12.6} {:>10.4} {:>12.6}",
+            r.a,
+            r.alpha,
+            r.d,
+            r.theta
+        );
+    }
+    o
 }
 
 fn finite_or_null(v: f64) -> serde_json::Value {

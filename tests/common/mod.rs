@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use powertwin::Robot;
+use powertwin::dynamics::DriveTerms;
 use powertwin::model::urdf::{LoadOptions, load_file};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -36,4 +37,15 @@ pub fn random_state(robot: &Robot, rng: &mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>,
         .map(|_| rng.random_range(-5.0..5.0))
         .collect();
     (q, dq, ddq)
+}
+
+/// Made-up drive terms of the right size: rotor inertia 0.3/i kg m^2, viscous 5/i N m s/rad,
+/// Coulomb 8/i N m for joint i (1-based).
+pub fn drive_terms(n: usize) -> DriveTerms {
+    let scaled = |v: f64| (1..=n).map(|i| v / i as f64).collect();
+    DriveTerms {
+        rotor_inertia: scaled(0.3),
+        viscous: scaled(5.0),
+        coulomb: scaled(8.0),
+    }
 }
