@@ -23,33 +23,22 @@ fn bench(c: &mut Criterion) {
     let dq = [0.5, -0.7, 0.9, 1.1, -1.3, 1.5];
     let ddq = [1.0, -2.0, 3.0, -4.0, 5.0, -6.0];
     let mut tau = vec![0.0; n];
-    c.bench_function("rnea", |b| {
-        b.iter(|| {
-            rnea(
-                &robot,
-                &mut ws,
-                black_box(&q),
-                black_box(&dq),
-                black_box(&ddq),
-                None,
-                &mut tau,
-            )
-        })
-    });
     let drive = DriveTerms::from_urdf(&robot);
-    c.bench_function("rnea_with_friction", |b| {
-        b.iter(|| {
-            rnea(
-                &robot,
-                &mut ws,
-                black_box(&q),
-                black_box(&dq),
-                black_box(&ddq),
-                Some(&drive),
-                &mut tau,
-            )
-        })
-    });
+    for (name, terms) in [("rnea", None), ("rnea_with_friction", Some(&drive))] {
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                rnea(
+                    &robot,
+                    &mut ws,
+                    black_box(&q),
+                    black_box(&dq),
+                    black_box(&ddq),
+                    terms,
+                    &mut tau,
+                )
+            })
+        });
+    }
     for (name, friction, armature) in [
         ("regressor", false, false),
         ("regressor_friction_armature", true, true),
