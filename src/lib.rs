@@ -7,16 +7,19 @@
 //!
 //! Data flows one way through the modules:
 //! [`model`] (URDF, drives, payloads) -> [`kinematics`] -> [`dynamics`] (RNEA, regressor,
-//! mass matrix, base parameters) -> later stages (trajectory, twin, dataset, identification,
-//! energy, validation).
+//! mass matrix, base parameters) -> [`trajectory`] -> [`twin`] (Rapier, controller, motor
+//! and sensor models) -> [`dataset`] -> later stages (identification, energy, validation).
 //!
 //! Units are SI everywhere (m, rad, kg, s, N m, W, J); frames are described in [`model`].
 
+pub mod dataset;
 pub mod dynamics;
 pub mod error;
 pub mod io;
 pub mod kinematics;
 pub mod model;
+pub mod trajectory;
+pub mod twin;
 
 pub use error::{Error, Result};
 pub use model::Robot;

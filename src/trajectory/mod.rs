@@ -1,0 +1,18 @@
+//! Joint trajectories: what the twin's controller tracks.
+//!
+//! A [`Trajectory`] gives the reference position, velocity and acceleration of every joint
+//! (rad, rad/s, rad/s^2) at any time `t` in `[0, duration]` (s). Implementations: sampled
+//! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
+//! point-to-point motions, and seeded random generators for bulk datasets.
+
+/// A joint-space reference trajectory.
+pub trait Trajectory: Send + Sync {
+    /// Number of joints.
+    fn dof(&self) -> usize;
+    /// Duration, s. The trajectory is defined on `[0, duration]`.
+    fn duration(&self) -> f64;
+    /// Reference position (rad), velocity (rad/s) and acceleration (rad/s^2) at time `t` (s),
+    /// written into slices of length [`Trajectory::dof`]. Times outside `[0, duration]` are
+    /// clamped. Must not allocate.
+    fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]);
+}
