@@ -1,0 +1,272 @@
+//! The robot as a Rapier reduced-coordinate multibody (`rapier3d-f64`).
+//!
+//! Every link is a dynamic body whose frame is the model's MDH link frame, carrying the link's
+//! mass properties (no colliders, self-contacts off, no sleeping). Joint `i` is a multibody
+//! revolute joint whose free axis is the link frame's z, so Rapier's joint coordinate equals
+//! the model's `q_i` (rad). Drive effects are injected into the physics per degree of
+//! freedom: viscous friction as Rapier damping (implicit), Coulomb friction with true stiction
+//! as Rapier's friction-loss constraint, and the rotor inertia reflected to the link side as
+//! armature (added to the mass matrix). Rapier's default joint damping is removed.
+//!
+//! Joint torques are applied exactly as equal and opposite body torques about the joint axis
+//! on the child and parent links, re-set every step: Rapier maps body wrenches through the
+//! body Jacobians, so the pair acts on that joint's degree of freedom only
+//! (`shared/reference/rapier.md`, section 2).
+//!
+//! Units: SI (m, rad, kg, kg m^2, N m, s); gravity -9.81 m/s^2 along the base z.
+
+use nalgebra::{Isometry3, Vector3};
+use rapier3d_f64::math::{Matrix, Pose, Rotation, Vector};
+use rapier3d_f64::prelude::{
+    GenericJointBuilder, JointAxesMask, MassProperties, MultibodyIndex, PhysicsWorld,
+    RigidBodyBuilder, RigidBodyHandle,
+};
+
+use crate::dynamics::{DriveTerms, GRAVITY};
+use crate::error::{Error, Result};
+use crate::model::{RigidInertia, Robot};
+
+/// Integration settings of the physics.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PhysicsSettings {
+    /// Step of the simulation (controller period; torques are held over it), s.
+    pub dt: f64,
+    /// Rapier substeps per step (`num_solver_iterations`): the integration step is `dt / substeps`.
+    pub substeps: usize,
+}
+
+impl Default for PhysicsSettings {
+    fn default() -> Self {
+        PhysicsSettings {
+            dt: 1e-3,
+            substeps: 6,
+        }
+    }
+}
+
+impl PhysicsSettings {
+    /// Check the settings: positive finite `dt` up to 0.1 s, 1..=64 substeps.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= 0.1) {
+            return Err(Error::InvalidInput(format!(
+                "physics step dt = {} s must be in (0, 0.1]",
+                self.dt
+            )));
+        }
+        if !(1..=64).contains(&self.substeps) {
+            return Err(Error::InvalidInput(format!(
+                "substeps = {} must be in 1..=64",
+                self.substeps
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The Rapier world holding one robot.
+pub struct RapierRobot {
+    world: PhysicsWorld,
+    links: Vec<RigidBodyHandle>,
+    multibody: MultibodyIndex,
+    /// Multibody link id of each joint's child body.
+    link_ids: Vec<usize>,
+    /// Index of each joint in Rapier's generalized coordinates.
+    dofs: Vec<usize>,
+}
+
+fn vec(v: &Vector3<f64>) -> Vector {
+    Vector::new(v.x, v.y, v.z)
+}
+
+fn pose(iso: &Isometry3<f64>) -> Pose {
+    let q = iso.rotation.coords;
+    Pose::from_parts(
+        vec(&iso.translation.vector),
+        Rotation::from_xyzw(q.x, q.y, q.z, q.w),
+    )
+}
+
+fn mass_properties(i: &RigidInertia) -> MassProperties {
+    let m = &i.inertia_com;
+    let inertia = Matrix::from_cols(
+        Vector::new(m[(0, 0)], m[(1, 0)], m[(2, 0)]),
+        Vector::new(m[(0, 1)], m[(1, 1)], m[(2, 1)]),
+        Vector::new(m[(0, 2)], m[(1, 2)], m[(2, 2)]),
+    );
+    MassProperties::with_inertia_matrix(vec(&i.com), i.mass, inertia)
+}
+
+impl RapierRobot {
+    /// Build the multibody of `robot` with the drive terms `drive` injected, at `q = 0`, at rest.
+    pub fn new(robot: &Robot, drive: &DriveTerms, settings: &PhysicsSettings) -> Result<Self> {
+        settings.validate()?;
+        let n = robot.dof();
+        for (name, v) in [
+            ("rotor_inertia", &drive.rotor_inertia),
+            ("viscous", &drive.viscous),
+            ("coulomb", &drive.coulomb),
+        ] {
+            if v.len() != n || v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(Error::InvalidInput(format!(
+                    "drive {name} must have {n} finite non-negative values"
+                )));
+            }
+        }
+        let mut world = PhysicsWorld::new();
+        world.gravity = vec(&GRAVITY);
+        world.integration_parameters.dt = settings.dt;
+        world.integration_parameters.num_solver_iterations = settings.substeps;
+        let base = world.insert_body(RigidBodyBuilder::fixed());
+        // The free degree of freedom of a revolute multibody joint is the joint frame's x axis;
+        // `r` turns it onto the link frame's z axis.
+        let r = Rotation::from_rotation_arc(Vector::X, Vector::Z);
+        let mut parent = base;
+        let mut links = Vec::with_capacity(n);
+        for (joint, link) in robot.joints().iter().zip(robot.links()) {
+            let body = world.insert_body(
+                RigidBodyBuilder::dynamic()
+                    .additional_mass_properties(mass_properties(&link.inertia))
+                    .can_sleep(false),
+            );
+            let frame1 = pose(&joint.origin);
+            let rapier_joint = GenericJointBuilder::new(JointAxesMask::LOCKED_REVOLUTE_AXES)
+                .local_frame1(Pose::from_parts(frame1.translation, frame1.rotation * r))
+                .local_frame2(Pose::from_rotation(r))
+                .contacts_enabled(false)
+                .build();
+            world
+                .multibody_joints
+                .insert(parent, body, rapier_joint, true)
+                .ok_or_else(|| {
+                    Error::Model(format!("Rapier refused the joint '{}'", joint.name))
+                })?;
+            links.push(body);
+            parent = body;
+        }
+        let link_of = |h: RigidBodyHandle| {
+            world
+                .multibody_joints
+                .rigid_body_link(h)
+                .copied()
+                .ok_or_else(|| Error::Model("a link is not part of the multibody".into()))
+        };
+        let multibody = link_of(links[0])?.multibody;
+        let link_ids = links
+            .iter()
+            .map(|h| link_of(*h).map(|l| l.id))
+            .collect::<Result<Vec<_>>>()?;
+        let mb = world
+            .multibody_joints
+            .get_multibody_mut(multibody)
+            .ok_or_else(|| Error::Model("multibody missing".into()))?;
+        // Until the first forward kinematics the fixed root is a free 6-DoF body.
+        mb.forward_kinematics(&world.bodies, true);
+        mb.set_self_contacts_enabled(false);
+        let dofs = link_ids
+            .iter()
+            .map(|id| mb.link(*id).map(|l| l.assembly_id()))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| Error::Model("multibody link missing".into()))?;
+        if mb.ndofs() != n {
+            return Err(Error::Model(format!(
+                "Rapier multibody has {} degrees of freedom, the robot {n}",
+                mb.ndofs()
+            )));
+        }
+        mb.damping_mut().fill(0.0);
+        for (i, &d) in dofs.iter().enumerate() {
+            mb.damping_mut()[d] = drive.viscous[i];
+            mb.frictions_mut()[d] = drive.coulomb[i];
+            mb.armature_mut()[d] = drive.rotor_inertia[i];
+        }
+        Ok(RapierRobot {
+            world,
+            links,
+            multibody,
+            link_ids,
+            dofs,
+        })
+    }
+
+    fn mb(&self) -> &rapier3d_f64::prelude::Multibody {
+        self.world
+            .multibody_joints
+            .get_multibody(self.multibody)
+            .expect("the multibody exists for the lifetime of RapierRobot")
+    }
+
+    /// Number of joints.
+    pub fn dof(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Joint positions (rad) and velocities (rad/s) Rapier holds now.
+    pub fn state(&self, q: &mut [f64], dq: &mut [f64]) {
+        let mb = self.mb();
+        let v = mb.generalized_velocity();
+        for i in 0..self.dof() {
+            q[i] = mb
+                .link(self.link_ids[i])
+                .map_or(f64::NAN, |l| l.joint().coords()[3]);
+            dq[i] = v[self.dofs[i]];
+        }
+    }
+
+    /// Teleport the robot to `(q, dq)` (rad, rad/s).
+    pub fn set_state(&mut self, q: &[f64], dq: &[f64]) {
+        let n = self.dof();
+        let mut cur_q = vec![0.0; n];
+        let mut cur_dq = vec![0.0; n];
+        self.state(&mut cur_q, &mut cur_dq);
+        let mut disp = vec![0.0; n];
+        for i in 0..n {
+            disp[self.dofs[i]] = q[i] - cur_q[i];
+        }
+        let multibody = self.multibody;
+        let world = &mut self.world;
+        let mb = world
+            .multibody_joints
+            .get_multibody_mut(multibody)
+            .expect("the multibody exists for the lifetime of RapierRobot");
+        mb.apply_displacements(&disp);
+        mb.forward_kinematics(&world.bodies, false);
+        mb.update_rigid_bodies(&mut world.bodies, true);
+        let mut v = mb.generalized_velocity_mut();
+        for i in 0..n {
+            v[self.dofs[i]] = dq[i];
+        }
+    }
+
+    /// Replace the mass properties of the last link (e.g. at a pick or release); `inertia`
+    /// is in the last link frame. Takes effect at the next step.
+    pub fn set_last_link_inertia(&mut self, inertia: &RigidInertia) {
+        let h = self.links[self.links.len() - 1];
+        if let Some(body) = self.world.bodies.get_mut(h) {
+            body.set_additional_mass_properties(mass_properties(inertia), true);
+        }
+    }
+
+    /// Advance one step `dt` holding the joint torques `tau` (N m).
+    pub fn step(&mut self, tau: &[f64]) {
+        let bodies = &mut self.world.bodies;
+        for h in &self.links {
+            if let Some(b) = bodies.get_mut(*h) {
+                b.reset_torques(false);
+            }
+        }
+        for (i, &t) in tau.iter().enumerate() {
+            let child = self.links[i];
+            let Some(body) = bodies.get_mut(child) else {
+                continue;
+            };
+            let axis = body.position().rotation * Vector::Z;
+            body.add_torque(axis * t, true);
+            if i > 0
+                && let Some(parent) = bodies.get_mut(self.links[i - 1])
+            {
+                parent.add_torque(axis * -t, true);
+            }
+        }
+        self.world.step();
+    }
+}

@@ -1,0 +1,307 @@
+//! The Rapier twin: fidelity of the applied torque against exact inverse dynamics on the
+//! motion Rapier produced, energy balance, payload events, determinism and bad input.
+
+mod common;
+
+use powertwin::dynamics::crba::{kinetic_energy, potential_energy};
+use powertwin::dynamics::rnea::rnea;
+use powertwin::dynamics::{DriveTerms, GRAVITY, Workspace};
+use powertwin::model::builtin;
+use powertwin::model::drive::Drive;
+use powertwin::trajectory::Trajectory;
+use powertwin::twin::record::Recording;
+use powertwin::twin::sensor::{NoiseSettings, SensorSettings, measure};
+use powertwin::twin::{PayloadEvent, Twin, TwinConfig};
+
+/// Each joint swings `a (1 - cos w t)` around a bent-arm pose; rest at t = 0.
+struct Swing {
+    duration: f64,
+    amp: f64,
+}
+
+impl Trajectory for Swing {
+    fn dof(&self) -> usize {
+        6
+    }
+    fn duration(&self) -> f64 {
+        self.duration
+    }
+    fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+        for i in 0..6 {
+            let q0 = [0.1, 0.4, -0.3, 0.2, 0.9, 0.0][i];
+            let a = self.amp * [0.8, 0.4, 0.5, 1.2, 0.6, 1.5][i];
+            let w = std::f64::consts::TAU * [0.1, 0.2, 0.3, 0.2, 0.3, 0.4][i];
+            q[i] = q0 + a * (1.0 - (w * t).cos());
+            dq[i] = a * w * (w * t).sin();
+            ddq[i] = a * w * w * (w * t).cos();
+        }
+    }
+}
+
+fn drive(robot: &powertwin::Robot) -> Drive {
+    Drive::from_toml_str(builtin::IRB1200_DRIVE, "irb1200 drive", robot).unwrap()
+}
+
+fn col(rec: &Recording, f: impl Fn(usize) -> f64) -> Vec<f64> {
+    (0..6).map(f).collect::<Vec<_>>()
+}
+
+#[test]
+fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let terms = DriveTerms::from(&drive);
+    let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    let (rec, report) = twin
+        .run(
+            &Swing {
+                duration: 10.0,
+                amp: 1.0,
+            },
+            &[],
+        )
+        .unwrap();
+    assert!(report.torque_limit_hits.is_empty());
+    assert!(report.max_tracking_error_rad < 2e-3, "{report:?}");
+    let dt = rec.dt;
+    let mut ws = Workspace::new(&robot);
+    let (mut sq, mut sr) = ([0.0; 6], [0.0; 6]);
+    let mut tau = [0.0; 6];
+    for k in 0..rec.len() - 1 {
+        // The state at mid-step: the second-order estimate of the continuous motion.
+        let qm = col(&rec, |i| 0.5 * (rec.q[i][k] + rec.q[i][k + 1]));
+        let vm = col(&rec, |i| 0.5 * (rec.dq[i][k] + rec.dq[i][k + 1]));
+        let am = col(&rec, |i| (rec.dq[i][k + 1] - rec.dq[i][k]) / dt);
+        rnea(&robot, &mut ws, &qm, &vm, &am, Some(&terms), &mut tau);
+        for i in 0..6 {
+            if vm[i].abs() >= 0.02 {
+                sq[i] += rec.tau[i][k].powi(2);
+                sr[i] += (rec.tau[i][k] - tau[i]).powi(2);
+            }
+        }
+    }
+    for i in 0..6 {
+        let rel = (sr[i] / sq[i]).sqrt();
+        assert!(
+            rel <= 2e-4,
+            "joint {}: residual {:.4} % of RMS torque",
+            i + 1,
+            100.0 * rel
+        );
+    }
+}
+
+#[test]
+fn applied_work_equals_energy_change_plus_friction_loss() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let terms = DriveTerms::from(&drive);
+    let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    // Half a period of the slowest joint: the arm ends far from where it started.
+    let (rec, _) = twin
+        .run(
+            &Swing {
+                duration: 5.0,
+                amp: 1.0,
+            },
+            &[],
+        )
+        .unwrap();
+    let last = rec.len() - 1;
+    let energy = |k: usize| {
+        let q = col(&rec, |i| rec.q[i][k]);
+        let v = col(&rec, |i| rec.dq[i][k]);
+        kinetic_energy(&robot, &q, &v, Some(&terms.rotor_inertia))
+            + potential_energy(&robot, &q, &GRAVITY)
+    };
+    let (mut work, mut friction, mut gross) = (0.0, 0.0, 0.0);
+    for k in 0..last {
+        for i in 0..6 {
+            let dq = rec.q[i][k + 1] - rec.q[i][k];
+            let w = rec.tau[i][k] * dq;
+            work += w;
+            gross += w.abs();
+            let v = 0.5 * (rec.dq[i][k] + rec.dq[i][k + 1]);
+            friction += terms.viscous[i] * v * dq + terms.coulomb[i] * dq.abs();
+        }
+    }
+    // Mechanical work recorded as power: sum of p_mech dt over the same rows.
+    let from_power: f64 = (0..last)
+        .map(|k| (0..6).map(|i| rec.p_mech[i][k]).sum::<f64>())
+        .sum::<f64>()
+        * rec.dt;
+    assert!((from_power - work).abs() < 1e-9 * gross);
+    let delta = energy(last) - energy(0);
+    let imbalance = work - delta - friction;
+    assert!(
+        delta.abs() > 10.0,
+        "the test motion must change the energy: {delta} J"
+    );
+    assert!(
+        imbalance.abs() < 1e-3 * gross,
+        "imbalance {imbalance} J of {gross} J gross work"
+    );
+}
+
+#[test]
+fn picking_a_payload_adds_its_gravity_load() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    // Hold still at a pose with the arm stretched forward; pick 4 kg at 1 s, release at 2 s.
+    struct Hold;
+    impl Trajectory for Hold {
+        fn dof(&self) -> usize {
+            6
+        }
+        fn duration(&self) -> f64 {
+            3.0
+        }
+        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+            q.copy_from_slice(&[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
+            dq.fill(0.0);
+            ddq.fill(0.0);
+        }
+    }
+    let load = builtin::payload("load_4kg").unwrap();
+    let events = [
+        PayloadEvent {
+            t_s: 1.0,
+            payload: Some(load.clone()),
+        },
+        PayloadEvent {
+            t_s: 2.0,
+            payload: None,
+        },
+    ];
+    let (rec, _) = twin.run(&Hold, &events).unwrap();
+    let at = |t: f64| (t / rec.dt).round() as usize;
+    let (before, during, after) = (at(0.9), at(1.9), at(2.9));
+    assert_eq!(rec.payload_mass[before], 0.0);
+    assert_eq!(rec.payload_mass[during], 4.0);
+    // Expected extra gravity torque on joints 2 and 3: 4 kg x 9.81 m/s^2 x horizontal lever
+    // arm of the load COM from each axis (both axes horizontal, along y).
+    let flange = powertwin::kinematics::fk::flange_pose(&robot, &[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
+    let com = flange * nalgebra::Point3::from(load.inertia.com);
+    let mut poses = vec![nalgebra::Isometry3::identity(); 6];
+    powertwin::kinematics::fk::link_poses(&robot, &[0.0, 0.5, 0.0, 0.0, 0.3, 0.0], &mut poses);
+    for j in [1, 2] {
+        let axis_x = poses[j].translation.vector.x;
+        let expect = 4.0 * 9.81 * (com.x - axis_x);
+        let got = rec.tau[j][during] - rec.tau[j][before];
+        // Joint 2's axis is -y in the base frame at this pose, so the sign follows the axis.
+        let axis = poses[j].rotation * nalgebra::Vector3::z();
+        let signed = expect * -axis.y;
+        assert!(
+            (got - signed).abs() < 1e-3 * signed.abs(),
+            "joint {}: {got} vs {signed}",
+            j + 1
+        );
+        assert!(
+            (rec.tau[j][after] - rec.tau[j][before]).abs() < 1e-6,
+            "released"
+        );
+    }
+}
+
+#[test]
+fn runs_and_measurements_are_deterministic() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let cfg = TwinConfig {
+        nominal_error: 0.05,
+        nominal_seed: 3,
+        ..TwinConfig::default()
+    };
+    let twin = Twin::new(&robot, &drive, cfg).unwrap();
+    let traj = Swing {
+        duration: 2.0,
+        amp: 0.5,
+    };
+    let (a, _) = twin.run(&traj, &[]).unwrap();
+    let (b, _) = twin.run(&traj, &[]).unwrap();
+    assert_eq!(a, b);
+    let s = SensorSettings {
+        seed: 9,
+        ..SensorSettings::default()
+    };
+    let (ma, mb) = (measure(&a, &s).unwrap(), measure(&b, &s).unwrap());
+    assert_eq!(ma, mb);
+    assert_eq!(ma.t.len(), 20);
+    let other = measure(&a, &SensorSettings { seed: 10, ..s }).unwrap();
+    assert_ne!(ma.p_total, other.p_total);
+    // Ideal sensors reproduce the truth at the sample rows.
+    let ideal = measure(
+        &a,
+        &SensorSettings {
+            noise: NoiseSettings::NONE,
+            ..s
+        },
+    )
+    .unwrap();
+    assert_eq!(ideal.q[2][5], a.q[2][500]);
+    assert_eq!(ideal.p_total[5], a.p_total[500]);
+    // A perturbed nominal model still tracks, with a larger error than the exact one.
+    let exact = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    let (_, r_exact) = exact.run(&traj, &[]).unwrap();
+    let (_, r_pert) = twin.run(&traj, &[]).unwrap();
+    assert!(r_pert.max_tracking_error_rad > r_exact.max_tracking_error_rad);
+    assert!(r_pert.max_tracking_error_rad < 1e-2);
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let mut cfg = TwinConfig::default();
+    cfg.physics.dt = 0.0;
+    assert!(Twin::new(&robot, &drive, cfg).is_err());
+    let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    let (rec, _) = twin
+        .run(
+            &Swing {
+                duration: 0.5,
+                amp: 0.1,
+            },
+            &[],
+        )
+        .unwrap();
+    let e = measure(
+        &rec,
+        &SensorSettings {
+            rate_hz: 300.0,
+            ..SensorSettings::default()
+        },
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("whole number of physics steps"),
+        "{e}"
+    );
+    let unsorted = [
+        PayloadEvent {
+            t_s: 0.3,
+            payload: None,
+        },
+        PayloadEvent {
+            t_s: 0.1,
+            payload: None,
+        },
+    ];
+    assert!(
+        twin.run(
+            &Swing {
+                duration: 0.5,
+                amp: 0.1
+            },
+            &unsorted
+        )
+        .is_err()
+    );
+    let e = NoiseSettings::from_toml_str("encoder_sigma_rad = 1\nbogus = 2\n", "noise.toml")
+        .unwrap_err();
+    assert!(
+        e.to_string().contains("noise.toml") && e.to_string().contains("bogus"),
+        "{e}"
+    );
+}
