@@ -9,7 +9,6 @@ use powertwin::dynamics::{DriveTerms, GRAVITY, Workspace};
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::trajectory::Trajectory;
-use powertwin::twin::record::Recording;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings, measure};
 use powertwin::twin::{PayloadEvent, Twin, TwinConfig};
 
@@ -42,7 +41,8 @@ fn drive(robot: &powertwin::Robot) -> Drive {
     Drive::from_toml_str(builtin::IRB1200_DRIVE, "irb1200 drive", robot).unwrap()
 }
 
-fn col(rec: &Recording, f: impl Fn(usize) -> f64) -> Vec<f64> {
+/// The six joint values `f(i)`.
+fn col(f: impl Fn(usize) -> f64) -> Vec<f64> {
     (0..6).map(f).collect::<Vec<_>>()
 }
 
@@ -69,9 +69,9 @@ fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
     let mut tau = [0.0; 6];
     for k in 0..rec.len() - 1 {
         // The state at mid-step: the second-order estimate of the continuous motion.
-        let qm = col(&rec, |i| 0.5 * (rec.q[i][k] + rec.q[i][k + 1]));
-        let vm = col(&rec, |i| 0.5 * (rec.dq[i][k] + rec.dq[i][k + 1]));
-        let am = col(&rec, |i| (rec.dq[i][k + 1] - rec.dq[i][k]) / dt);
+        let qm = col(|i| 0.5 * (rec.q[i][k] + rec.q[i][k + 1]));
+        let vm = col(|i| 0.5 * (rec.dq[i][k] + rec.dq[i][k + 1]));
+        let am = col(|i| (rec.dq[i][k + 1] - rec.dq[i][k]) / dt);
         rnea(&robot, &mut ws, &qm, &vm, &am, Some(&terms), &mut tau);
         for i in 0..6 {
             if vm[i].abs() >= 0.02 {
@@ -109,8 +109,8 @@ fn applied_work_equals_energy_change_plus_friction_loss() {
         .unwrap();
     let last = rec.len() - 1;
     let energy = |k: usize| {
-        let q = col(&rec, |i| rec.q[i][k]);
-        let v = col(&rec, |i| rec.dq[i][k]);
+        let q = col(|i| rec.q[i][k]);
+        let v = col(|i| rec.dq[i][k]);
         kinetic_energy(&robot, &q, &v, Some(&terms.rotor_inertia))
             + potential_energy(&robot, &q, &GRAVITY)
     };
