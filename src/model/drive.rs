@@ -194,6 +194,22 @@ impl Drive {
         Drive::from_toml_str(&text, &path.display().to_string(), robot)
     }
 
+    /// Drive data from per-joint values in robot joint order, with the file's range checks
+    /// (errors name the joint and the quantity).
+    pub fn new(robot: &Robot, joints: Vec<JointDrive>) -> Result<Drive> {
+        if joints.len() != robot.dof() {
+            return Err(Error::InvalidInput(format!(
+                "{} drive entries for a robot with {} joints",
+                joints.len(),
+                robot.dof()
+            )));
+        }
+        for (j, d) in robot.joints().iter().zip(&joints) {
+            check_joint(d).map_err(|m| Error::InvalidInput(format!("drive of joint '{}': {m}", j.name)))?;
+        }
+        Ok(Drive { joints })
+    }
+
     /// Ideal drives: no friction, no rotor inertia, efficiency 1, no copper or standby loss.
     pub fn ideal(robot: &Robot) -> Drive {
         Drive {
