@@ -5,6 +5,8 @@
 //! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
 //! point-to-point motions, and seeded random generators for bulk datasets.
 
+pub mod sampled;
+
 /// A joint-space reference trajectory.
 pub trait Trajectory: Send + Sync {
     /// Number of joints.
