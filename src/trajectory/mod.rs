@@ -5,6 +5,7 @@
 //! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
 //! point-to-point motions, and seeded random generators for bulk datasets.
 
+pub mod fourier;
 pub mod sampled;
 
 /// A joint-space reference trajectory.
