@@ -6,6 +6,7 @@
 //! point-to-point motions, and seeded random generators for bulk datasets.
 
 pub mod fourier;
+pub mod point_to_point;
 pub mod sampled;
 
 /// A joint-space reference trajectory.
