@@ -9,6 +9,7 @@
 pub mod fourier;
 pub mod limits;
 pub mod point_to_point;
+pub mod random;
 pub mod sampled;
 
 /// A joint-space reference trajectory.
