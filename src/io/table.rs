@@ -76,6 +76,11 @@ impl Table {
         Table::parse(&text, &path.display().to_string())
     }
 
+    /// The label naming the source in errors (usually the file path).
+    pub fn label(&self) -> &str {
+        &self.label
+    }
+
     /// Number of data rows.
     pub fn rows(&self) -> usize {
         self.columns.first().map_or(0, Vec::len)

@@ -4,6 +4,13 @@
 //! (rad, rad/s, rad/s^2) at any time `t` in `[0, duration]` (s). Implementations: sampled
 //! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
 //! point-to-point motions, and seeded random generators for bulk datasets.
+//! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
+
+pub mod fourier;
+pub mod limits;
+pub mod point_to_point;
+pub mod random;
+pub mod sampled;
 
 /// A joint-space reference trajectory.
 pub trait Trajectory: Send + Sync {
