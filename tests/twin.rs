@@ -240,7 +240,18 @@ fn runs_and_measurements_are_deterministic() {
     )
     .unwrap();
     assert_eq!(ideal.q[2][5], a.q[2][500]);
-    assert_eq!(ideal.p_total[5], a.p_total[500]);
+    assert_eq!(ideal.p_total[5], 0.5 * (a.p_total[499] + a.p_total[500]));
+    let avg = measure(
+        &a,
+        &SensorSettings {
+            noise: NoiseSettings::NONE,
+            power_averaging: true,
+            ..s
+        },
+    )
+    .unwrap();
+    let window: f64 = a.p_total[400..500].iter().sum::<f64>() / 100.0;
+    assert!((avg.p_total[5] - window).abs() < 1e-12);
     // A perturbed nominal model still tracks, with a larger error than the exact one.
     let exact = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
     let (_, r_exact) = exact.run(&traj, &[]).unwrap();

@@ -205,7 +205,8 @@ impl Drive {
             )));
         }
         for (j, d) in robot.joints().iter().zip(&joints) {
-            check_joint(d).map_err(|m| Error::InvalidInput(format!("drive of joint '{}': {m}", j.name)))?;
+            check_joint(d)
+                .map_err(|m| Error::InvalidInput(format!("drive of joint '{}': {m}", j.name)))?;
         }
         Ok(Drive { joints })
     }

@@ -7,10 +7,12 @@
 //! - total motor power from a power meter: Gaussian noise `power_sigma_W` plus a constant
 //!   offset `power_offset_W`.
 //!
-//! Power is sampled instantaneously (the value of the physics step containing the sample
-//! time), as RobotStudio's signal analyser does, or averaged over the sample period ending at
-//! the sample time when `power_averaging` is on (an integrating power meter; window energies
-//! are then exact). Noise is seeded, so a seed reproduces a dataset bit for bit.
+//! Truth row `k` holds the power over `[t_k, t_k + dt)`. Power is sampled instantaneously at
+//! the sample time `t_k` (the mean of the two physics steps around it, a second-order
+//! estimate centred on `t_k`), as RobotStudio's signal analyser does, or averaged over the
+//! sample period `[t_k - T, t_k)` when `power_averaging` is on (an integrating power meter;
+//! window energies are then exact). Noise is seeded, so a seed reproduces a dataset bit for
+//! bit.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -143,10 +145,10 @@ pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
     let noise = &s.noise;
     for k in (0..rec.len()).step_by(stride) {
         m.t.push(rec.t[k]);
-        let window = if s.power_averaging && k >= stride {
-            k + 1 - stride..k + 1
-        } else {
-            k..k + 1
+        let window = match (s.power_averaging, k) {
+            (_, 0) => 0..1,
+            (true, _) if k >= stride => k - stride..k,
+            _ => k - 1..(k + 1).min(rec.len()),
         };
         let len = window.len() as f64;
         for i in 0..n {
