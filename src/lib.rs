@@ -15,6 +15,7 @@
 pub mod dataset;
 pub mod dynamics;
 pub mod error;
+pub mod identification;
 pub mod io;
 pub mod kinematics;
 pub mod model;

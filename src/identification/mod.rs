@@ -1,0 +1,4 @@
+//! Parameter identification from motor power (Liu et al. 2018, eqs. 9–13), and the signal
+//! processing that turns a logged stream into regressor inputs.
+
+pub mod fourier_fit;
