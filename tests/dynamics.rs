@@ -277,3 +277,26 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn energy_regressor_gives_kinetic_plus_potential_energy() {
+    use powertwin::dynamics::energy_regressor::energy_regressor;
+    let robot = common::irb1200();
+    let n = robot.dof();
+    let d = common::drive_terms(n);
+    let layout = ParamLayout::new(&robot, true, true);
+    let theta = layout.theta(&robot, &d);
+    let mut h = vec![0.0; layout.len()];
+    let mut rng = common::rng(8);
+    for _ in 0..200 {
+        let (q, dq, _) = common::random_state(&robot, &mut rng);
+        energy_regressor(&robot, &layout, &GRAVITY, &q, &dq, &mut h);
+        let e: f64 = h.iter().zip(&theta).map(|(a, b)| a * b).sum();
+        let expect = kinetic_energy(&robot, &q, &dq, Some(&d.rotor_inertia))
+            + potential_energy(&robot, &q, &GRAVITY);
+        assert!(
+            (e - expect).abs() < 1e-10 * (1.0 + expect.abs()),
+            "{e} vs {expect}"
+        );
+    }
+}

@@ -15,6 +15,7 @@
 
 pub mod base_params;
 pub mod crba;
+pub mod energy_regressor;
 pub mod layout;
 pub mod regressor;
 pub mod rnea;
