@@ -58,3 +58,53 @@ fn fourier_fit_recovers_the_series_from_10_hz_samples() {
     let same_t = vec![1.0; 20];
     assert!(fit_fourier(&same_t, &[vec![0.0; 20]], 0.1, 5).is_err());
 }
+
+#[test]
+fn least_squares_statistics_and_rank_errors() {
+    use nalgebra::{DMatrix, DVector};
+    use powertwin::identification::lsq::solve;
+    let names: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
+    // y = 2 x0 - 3 x1 + 0.5 x2 exactly, with very different column scales.
+    let a = DMatrix::from_fn(50, 3, |r, c| {
+        let t = r as f64 * 0.1;
+        [t.sin(), 1000.0 * (2.0 * t).cos(), 1e-3 * t][c]
+    });
+    let y = &a * DVector::from_vec(vec![2.0, -3.0, 0.5]);
+    let e = solve(&a, &y, &names).unwrap();
+    for (v, t) in e.values.iter().zip([2.0, -3.0, 0.5]) {
+        assert!((v - t).abs() < 1e-7 * t.abs(), "{v} vs {t}");
+    }
+    assert!(e.residual_rms < 1e-9 && e.cond < 100.0);
+    // Noise gives standard deviations that cover the error.
+    let noisy = &y + DVector::from_fn(50, |r, _| 0.01 * ((r * 13) as f64).sin());
+    let e = solve(&a, &noisy, &names).unwrap();
+    for k in 0..3 {
+        assert!(
+            (e.values[k] - [2.0, -3.0, 0.5][k]).abs() < 5.0 * e.std[k],
+            "{e:?}"
+        );
+        assert!(e.rel_std[k] > 0.0 && e.rel_std[k].is_finite());
+    }
+    // A column that duplicates another is named.
+    let mut dup = a.clone();
+    let c0 = dup.column(0).clone_owned();
+    dup.column_mut(2).copy_from(&(c0 * 3.0));
+    let err = solve(&dup, &y, &names).unwrap_err().to_string();
+    assert!(
+        err.contains("rank-deficient")
+            && (err.contains("cannot identify a") || err.contains("cannot identify c")),
+        "{err}"
+    );
+    let mut zero = a.clone();
+    zero.column_mut(1).fill(0.0);
+    let err = solve(&zero, &y, &names).unwrap_err().to_string();
+    assert!(err.contains("b (not excited at all)"), "{err}");
+    let mut nan = a.clone();
+    nan[(3, 1)] = f64::NAN;
+    assert!(
+        solve(&nan, &y, &names)
+            .unwrap_err()
+            .to_string()
+            .contains("NaN")
+    );
+}

@@ -2,3 +2,4 @@
 //! processing that turns a logged stream into regressor inputs.
 
 pub mod fourier_fit;
+pub mod lsq;

@@ -1,0 +1,128 @@
+//! Ordinary least squares with the statistics identification reports.
+//!
+//! Columns are scaled to unit norm before solving, so the condition number and the rank
+//! decision do not depend on parameter units. A regressor whose scaled condition number
+//! exceeds [`MAX_COND`] is rank deficient: the error names the parameters involved (the
+//! columns that pivoted QR leaves without a significant pivot).
+
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+/// Largest accepted condition number of the column-scaled regressor.
+pub const MAX_COND: f64 = 1e10;
+
+/// A least-squares estimate.
+#[derive(Debug, Clone, Serialize)]
+pub struct Estimate {
+    /// Parameter names, in column order.
+    pub names: Vec<String>,
+    /// Estimated values.
+    pub values: Vec<f64>,
+    /// Standard deviations `sigma_k = sqrt(s^2 (A^T A)^-1_kk)` with `s^2 = |r|^2 / (m - p)`.
+    pub std: Vec<f64>,
+    /// Relative standard deviations `sigma_k / |value_k|` (infinite for a zero value).
+    pub rel_std: Vec<f64>,
+    /// Condition number of the regressor (columns scaled to unit norm).
+    pub cond: f64,
+    /// RMS of the residual, in the units of the observations (W for power, J for energy).
+    pub residual_rms: f64,
+    /// Number of observations.
+    pub rows: usize,
+}
+
+/// Solve `a x = y` in the least-squares sense. `names` label the columns.
+pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Estimate> {
+    let (m, p) = a.shape();
+    if names.len() != p || y.len() != m {
+        return Err(Error::InvalidInput(format!(
+            "regressor {m}x{p}, {} observations, {} names",
+            y.len(),
+            names.len()
+        )));
+    }
+    if m <= p {
+        return Err(Error::InvalidInput(format!(
+            "{m} observations for {p} parameters: need more data"
+        )));
+    }
+    if a.iter().chain(y.iter()).any(|v| !v.is_finite()) {
+        return Err(Error::InvalidInput(
+            "regressor or observations contain NaN or infinite values".into(),
+        ));
+    }
+    let norms: Vec<f64> = a.column_iter().map(|c| c.norm()).collect();
+    let zero: Vec<&str> = names
+        .iter()
+        .zip(&norms)
+        .filter(|(_, n)| **n == 0.0)
+        .map(|(s, _)| s.as_str())
+        .collect();
+    if !zero.is_empty() {
+        return Err(Error::RankDeficient {
+            rank: p - zero.len(),
+            cols: p,
+            unidentifiable: format!("{} (not excited at all)", zero.join(", ")),
+        });
+    }
+    let scaled = DMatrix::from_fn(m, p, |r, c| a[(r, c)] / norms[c]);
+    let svd = scaled.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    let cond = smax / smin;
+    if !(cond <= MAX_COND) {
+        let qr = scaled.clone().col_piv_qr();
+        // Columns in pivot order: the permutation applied to the column indices.
+        let mut idx = DMatrix::from_fn(1, p, |_, c| c as f64);
+        qr.p().permute_columns(&mut idx);
+        let diag = qr.unpack_r().diagonal();
+        let order: Vec<usize> = idx.iter().map(|v| *v as usize).collect();
+        let rank = diag.iter().filter(|d| d.abs() > smax / MAX_COND).count();
+        let bad: Vec<&str> = order[rank..].iter().map(|&c| names[c].as_str()).collect();
+        return Err(Error::RankDeficient {
+            rank,
+            cols: p,
+            unidentifiable: format!("{} (condition number {cond:.3e})", bad.join(", ")),
+        });
+    }
+    let x_scaled = svd
+        .solve(&DMatrix::from_column_slice(m, 1, y.as_slice()), 0.0)
+        .map_err(|e| Error::InvalidInput(format!("least squares failed: {e}")))?;
+    let values: Vec<f64> = (0..p).map(|c| x_scaled[(c, 0)] / norms[c]).collect();
+    let resid = a * DVector::from_column_slice(&values) - y;
+    let s2 = resid.norm_squared() / (m - p) as f64;
+    // (A^T A)^-1 = S^-1 (As^T As)^-1 S^-1 with As = A S^-1; (As^T As)^-1 = V diag(1/s^2) V^T.
+    let v_t = svd
+        .v_t
+        .as_ref()
+        .ok_or_else(|| Error::InvalidInput("SVD without V".into()))?;
+    let std: Vec<f64> = (0..p)
+        .map(|c| {
+            let var: f64 = (0..p)
+                .map(|k| (v_t[(k, c)] / svd.singular_values[k]).powi(2))
+                .sum();
+            (s2 * var).sqrt() / norms[c]
+        })
+        .collect();
+    let rel_std = values
+        .iter()
+        .zip(&std)
+        .map(|(v, s)| {
+            if *v == 0.0 {
+                f64::INFINITY
+            } else {
+                s / v.abs()
+            }
+        })
+        .collect();
+    Ok(Estimate {
+        names: names.to_vec(),
+        values,
+        std,
+        rel_std,
+        cond,
+        residual_rms: (resid.norm_squared() / m as f64).sqrt(),
+        rows: m,
+    })
+}
