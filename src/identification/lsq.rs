@@ -71,7 +71,7 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     let cond = smax / smin;
-    if !(cond <= MAX_COND) {
+    if cond.is_nan() || cond > MAX_COND {
         let qr = scaled.clone().col_piv_qr();
         // Columns in pivot order: the permutation applied to the column indices.
         let mut idx = DMatrix::from_fn(1, p, |_, c| c as f64);
