@@ -108,3 +108,28 @@ fn least_squares_statistics_and_rank_errors() {
             .contains("NaN")
     );
 }
+
+#[test]
+fn smoothing_route_differentiates_10_hz_samples() {
+    use powertwin::identification::states::from_smoothing;
+    // q = sin(w t) with w = 2 pi 0.3 Hz, sampled at 10 Hz.
+    let w = std::f64::consts::TAU * 0.3;
+    let t: Vec<f64> = (0..80).map(|k| k as f64 * 0.1).collect();
+    let q = vec![t.iter().map(|x| (w * x).sin()).collect::<Vec<_>>()];
+    let s = from_smoothing(&t, &q, 9, 4).unwrap();
+    for (k, &x) in t.iter().enumerate() {
+        let edge = k < 4 || k >= 76;
+        let tol = if edge { 5e-3 } else { 1e-3 };
+        assert!((s.q[0][k] - (w * x).sin()).abs() < tol * 0.1);
+        assert!(
+            (s.dq[0][k] - w * (w * x).cos()).abs() < tol * w,
+            "dq at {x}"
+        );
+        assert!(
+            (s.ddq[0][k] + w * w * (w * x).sin()).abs() < 10.0 * tol * w * w,
+            "ddq at {x}"
+        );
+    }
+    assert!(from_smoothing(&t, &q, 8, 4).is_err());
+    assert!(from_smoothing(&t[..5], &[q[0][..5].to_vec()], 9, 4).is_err());
+}

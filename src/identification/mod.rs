@@ -3,3 +3,4 @@
 
 pub mod fourier_fit;
 pub mod lsq;
+pub mod states;

@@ -1,0 +1,128 @@
+//! Joint states (q, dq, ddq) at the logged sample times: what the regressors are evaluated at.
+//!
+//! Two routes, both from logged positions only:
+//! - [`from_fourier`]: the paper's route for periodic excitation: the fitted series
+//!   ([`crate::identification::fourier_fit`]) differentiated analytically;
+//! - [`from_smoothing`]: the general route for any motion: a local polynomial least-squares
+//!   fit (Savitzky–Golay) around each sample, differentiated analytically. Near the ends the
+//!   window is shifted inwards, so no sample is lost.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result, ensure_finite};
+use crate::trajectory::Trajectory;
+
+/// States of every joint at sample times; vectors are joint-major (`q[i][m]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct States {
+    /// Sample times, s.
+    pub t: Vec<f64>,
+    /// Positions, rad.
+    pub q: Vec<Vec<f64>>,
+    /// Velocities, rad/s.
+    pub dq: Vec<Vec<f64>>,
+    /// Accelerations, rad/s^2.
+    pub ddq: Vec<Vec<f64>>,
+}
+
+impl States {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Copy the state of sample `m` into the three slices.
+    pub fn at(&self, m: usize, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+        for i in 0..self.q.len() {
+            q[i] = self.q[i][m];
+            dq[i] = self.dq[i][m];
+            ddq[i] = self.ddq[i][m];
+        }
+    }
+}
+
+/// Sample a trajectory (e.g. a fitted Fourier series) at times `t` (s).
+pub fn from_fourier(traj: &dyn Trajectory, t: &[f64]) -> States {
+    let n = traj.dof();
+    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut s = States {
+        t: t.to_vec(),
+        q: vec![Vec::with_capacity(t.len()); n],
+        dq: vec![Vec::with_capacity(t.len()); n],
+        ddq: vec![Vec::with_capacity(t.len()); n],
+    };
+    for &tk in t {
+        traj.sample(tk, &mut q, &mut dq, &mut ddq);
+        for i in 0..n {
+            s.q[i].push(q[i]);
+            s.dq[i].push(dq[i]);
+            s.ddq[i].push(ddq[i]);
+        }
+    }
+    s
+}
+
+/// Smooth and differentiate positions `q[i][m]` (rad) sampled at times `t` (s, increasing)
+/// with a local polynomial of `degree` (2..=6) over `window` samples (odd, > degree).
+pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -> Result<States> {
+    let m = t.len();
+    if !(2..=6).contains(&degree) || window % 2 == 0 || window <= degree {
+        return Err(Error::InvalidInput(format!(
+            "smoothing needs an odd window > degree and a degree in 2..=6 (window {window}, degree {degree})"
+        )));
+    }
+    if m < window {
+        return Err(Error::InvalidInput(format!(
+            "{m} samples are fewer than the smoothing window {window}"
+        )));
+    }
+    ensure_finite(t, "t")?;
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(Error::InvalidInput(format!(
+            "sample times must increase (sample {})",
+            k + 2
+        )));
+    }
+    for (i, c) in q.iter().enumerate() {
+        if c.len() != m {
+            return Err(Error::InvalidInput(format!(
+                "q{} has {} samples, t has {m}",
+                i + 1,
+                c.len()
+            )));
+        }
+        ensure_finite(c, &format!("q{}", i + 1))?;
+    }
+    let n = q.len();
+    let half = window / 2;
+    let mut s = States {
+        t: t.to_vec(),
+        q: vec![vec![0.0; m]; n],
+        dq: vec![vec![0.0; m]; n],
+        ddq: vec![vec![0.0; m]; n],
+    };
+    for k in 0..m {
+        let start = k.saturating_sub(half).min(m - window);
+        let tc = t[k];
+        // Polynomial in (t - t_k): value, first and second derivative are c0, c1, 2 c2.
+        let x = DMatrix::from_fn(window, degree + 1, |r, c| {
+            (t[start + r] - tc).powi(c as i32)
+        });
+        let svd = x.svd(true, true);
+        for i in 0..n {
+            let y = DVector::from_fn(window, |r, _| q[i][start + r]);
+            let c = svd
+                .solve(&y, 0.0)
+                .map_err(|e| Error::InvalidInput(format!("smoothing fit failed: {e}")))?;
+            s.q[i][k] = c[0];
+            s.dq[i][k] = c[1];
+            s.ddq[i][k] = 2.0 * c[2];
+        }
+    }
+    Ok(s)
+}
