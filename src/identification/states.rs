@@ -71,7 +71,7 @@ pub fn from_fourier(traj: &dyn Trajectory, t: &[f64]) -> States {
 /// with a local polynomial of `degree` (2..=6) over `window` samples (odd, > degree).
 pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -> Result<States> {
     let m = t.len();
-    if !(2..=6).contains(&degree) || window % 2 == 0 || window <= degree {
+    if !(2..=6).contains(&degree) || window.is_multiple_of(2) || window <= degree {
         return Err(Error::InvalidInput(format!(
             "smoothing needs an odd window > degree and a degree in 2..=6 (window {window}, degree {degree})"
         )));
@@ -98,13 +98,12 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
         }
         ensure_finite(c, &format!("q{}", i + 1))?;
     }
-    let n = q.len();
     let half = window / 2;
     let mut s = States {
         t: t.to_vec(),
-        q: vec![vec![0.0; m]; n],
-        dq: vec![vec![0.0; m]; n],
-        ddq: vec![vec![0.0; m]; n],
+        q: vec![vec![0.0; m]; q.len()],
+        dq: vec![vec![0.0; m]; q.len()],
+        ddq: vec![vec![0.0; m]; q.len()],
     };
     for k in 0..m {
         let start = k.saturating_sub(half).min(m - window);
@@ -114,8 +113,8 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
             (t[start + r] - tc).powi(c as i32)
         });
         let svd = x.svd(true, true);
-        for i in 0..n {
-            let y = DVector::from_fn(window, |r, _| q[i][start + r]);
+        for (i, qi) in q.iter().enumerate() {
+            let y = DVector::from_fn(window, |r, _| qi[start + r]);
             let c = svd
                 .solve(&y, 0.0)
                 .map_err(|e| Error::InvalidInput(format!("smoothing fit failed: {e}")))?;
