@@ -133,3 +133,73 @@ fn smoothing_route_differentiates_10_hz_samples() {
     assert!(from_smoothing(&t, &q, 8, 4).is_err());
     assert!(from_smoothing(&t[..5], &[q[0][..5].to_vec()], 9, 4).is_err());
 }
+
+mod excitation {
+    use super::common;
+    use powertwin::trajectory::Trajectory;
+    use powertwin::trajectory::excitation::{ExcitationOptions, design};
+    use powertwin::trajectory::limits::{IRB1200_ACCEL_LIMITS, check_limits};
+
+    fn options(joints: Vec<usize>) -> ExcitationOptions {
+        let robot = common::irb1200();
+        let mut o = ExcitationOptions::new(
+            &robot,
+            joints,
+            vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0],
+            IRB1200_ACCEL_LIMITS.to_vec(),
+        );
+        o.max_evals = 600;
+        o.starts = 1;
+        o
+    }
+
+    #[test]
+    fn wrist_excitation_is_well_conditioned_and_within_limits() {
+        let robot = common::irb1200();
+        let ex = design(&robot, &options(vec![3, 4, 5])).unwrap();
+        assert!(
+            ex.cond_final < ex.cond_initial / 10.0,
+            "{} -> {}",
+            ex.cond_initial,
+            ex.cond_final
+        );
+        assert!(ex.cond_final < 1e3, "{}", ex.cond_final);
+        // Links 1-3 cannot be seen by moving the wrist only.
+        assert!(
+            ex.parameters
+                .iter()
+                .all(|p| p.ends_with('4') || p.ends_with('5') || p.ends_with('6')),
+            "{:?}",
+            ex.parameters
+        );
+        check_limits(&robot, &ex.trajectory, 1e-3, Some(&IRB1200_ACCEL_LIMITS)).unwrap();
+        // Rest at start and end; the joints that are not excited stay at the rest pose.
+        let (mut q, mut dq, mut ddq) = ([0.0; 6], [0.0; 6], [0.0; 6]);
+        for t in [0.0, ex.trajectory.duration()] {
+            ex.trajectory.sample(t, &mut q, &mut dq, &mut ddq);
+            assert!(dq.iter().chain(&ddq).all(|v| v.abs() < 1e-9));
+        }
+        assert_eq!(&q[..3], &[0.0, 0.2, 0.2]);
+        // Same seed, same design.
+        let again = design(&robot, &options(vec![3, 4, 5])).unwrap();
+        assert_eq!(again.trajectory, ex.trajectory);
+    }
+
+    #[test]
+    fn bad_excitation_settings_are_errors() {
+        let robot = common::irb1200();
+        let mut o = options(vec![7]);
+        assert!(design(&robot, &o).is_err());
+        o = options(vec![1]);
+        o.rest_pose[1] = 3.0;
+        assert!(
+            design(&robot, &o)
+                .unwrap_err()
+                .to_string()
+                .contains("joint_2")
+        );
+        o = options(vec![1]);
+        o.harmonics = 1;
+        assert!(design(&robot, &o).is_err());
+    }
+}

@@ -8,14 +8,14 @@
 //! drive terms after the inertial ones makes the base-parameter selection keep `ZZ1`
 //! (regrouped with `Ia1`) rather than `Ia1`.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::dynamics::DriveTerms;
 use crate::model::Robot;
 use crate::model::inertia::STANDARD_NAMES;
 
 /// Which parameter groups the regressor has.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ParamLayout {
     /// Number of joints.
     pub dof: usize,

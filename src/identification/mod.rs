@@ -2,5 +2,7 @@
 //! processing that turns a logged stream into regressor inputs.
 
 pub mod fourier_fit;
+pub mod linear;
 pub mod lsq;
+pub mod model;
 pub mod states;

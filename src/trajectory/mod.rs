@@ -6,6 +6,7 @@
 //! point-to-point motions, and seeded random generators for bulk datasets.
 //! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
 
+pub mod excitation;
 pub mod fourier;
 pub mod limits;
 pub mod point_to_point;
