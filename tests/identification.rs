@@ -203,3 +203,60 @@ mod excitation {
         assert!(design(&robot, &o).is_err());
     }
 }
+
+#[test]
+fn window_energy_estimator_recovers_a_known_model_exactly() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
+    use powertwin::identification::{energy, model::PowerModel};
+    let robot = common::irb1200();
+    let d = common::drive_terms(6);
+    let layout = ParamLayout::new(&robot, true, true);
+    let mut truth = PowerModel::new(&robot, layout, false).unwrap();
+    let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
+    truth.theta = bp.base_values(&layout.theta(&robot, &d)).unwrap();
+    truth.constant[0] = 42.0;
+    let mut rng = common::rng(6);
+    let opts = RandomFourierOptions {
+        periods: 4.0,
+        ..RandomFourierOptions::default()
+    };
+    let traj = random_fourier(&robot, &mut rng, &opts).unwrap();
+    let t: Vec<f64> = (0..=400).map(|k| k as f64 * 0.1).collect();
+    // Window energies by fine integration of the model's power.
+    let e: Vec<f64> = t
+        .windows(2)
+        .map(|w| {
+            struct Window<'a>(&'a dyn Trajectory, f64, f64);
+            impl Trajectory for Window<'_> {
+                fn dof(&self) -> usize {
+                    6
+                }
+                fn duration(&self) -> f64 {
+                    self.2 - self.1
+                }
+                fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+                    self.0.sample(self.1 + t, q, dq, ddq)
+                }
+            }
+            truth
+                .energy(&robot, &Window(&traj, w[0], w[1]), 1e-4)
+                .unwrap()
+        })
+        .collect();
+    let mut est_model = PowerModel::new(&robot, layout, false).unwrap();
+    let est = energy::identify(&robot, &mut est_model, &traj, &t, &e).unwrap();
+    // Limited by Simpson on |dq| at velocity reversals and the trapezoidal reference.
+    assert!(est.residual_rms < 1e-4, "{}", est.residual_rms);
+    for (k, (a, b)) in est_model.theta.iter().zip(&truth.theta).enumerate() {
+        assert!(
+            (a - b).abs() < 1e-4 * (1.0 + b.abs()),
+            "{}: {a} vs {b}, cond {}, rel std {}",
+            est_model.names[k],
+            est.cond,
+            est.rel_std[k]
+        );
+    }
+    assert!((est_model.constant[0] - 42.0).abs() < 1e-4);
+    assert!(energy::identify(&robot, &mut est_model, &traj, &t, &e[1..]).is_err());
+}
