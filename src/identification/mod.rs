@@ -6,4 +6,5 @@ pub mod fourier_fit;
 pub mod linear;
 pub mod lsq;
 pub mod model;
+pub mod pmsm;
 pub mod states;
