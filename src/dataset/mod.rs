@@ -1,1 +1,3 @@
-//! Datasets.
+//! Datasets: what one twin run produced, as a directory of files. [`meta`] describes the run.
+
+pub mod meta;
