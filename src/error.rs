@@ -63,6 +63,16 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A dataset directory is malformed: a file is missing or unreadable, a column is missing,
+    /// unexpected or not `f64`, a cell is not finite, or the files disagree (names the file,
+    /// and the column and 1-based data row where there is one).
+    #[error("{path}: {message}")]
+    Dataset {
+        /// The file (or the directory when no file is concerned).
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl Error {

@@ -16,7 +16,7 @@
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace};
@@ -47,7 +47,7 @@ impl Default for SamplingOptions {
 }
 
 /// One regrouping relation: `base = standard + sum coef * dropped`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Relation {
     /// Name of the base parameter (the kept standard parameter's name, plus `R` if regrouped).
     pub base: String,

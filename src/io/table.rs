@@ -5,6 +5,7 @@
 //! other columns are ignored. Rows are numbered 1-based with the header as row 1, as a
 //! spreadsheet shows them.
 
+use std::io::{Read, Write};
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -20,6 +21,11 @@ pub struct Table {
 impl Table {
     /// Parse CSV text; `label` names the source in errors. Every cell must be a finite number.
     pub fn parse(text: &str, label: &str) -> Result<Table> {
+        Table::from_reader(text.as_bytes(), label)
+    }
+
+    /// Parse CSV from a reader (streamed, record by record); see [`Table::parse`].
+    fn from_reader(input: impl Read, label: &str) -> Result<Table> {
         let err = |row: usize, message: String| Error::Table {
             file: label.to_string(),
             row,
@@ -27,7 +33,7 @@ impl Table {
         };
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::All)
-            .from_reader(text.as_bytes());
+            .from_reader(input);
         let headers: Vec<String> = reader
             .headers()
             .map_err(|e| err(1, e.to_string()))?
@@ -70,10 +76,10 @@ impl Table {
         })
     }
 
-    /// Read and parse a CSV file.
+    /// Read and parse a CSV file (streamed: memory holds the columns, not the text).
     pub fn read(path: &Path) -> Result<Table> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-        Table::parse(&text, &path.display().to_string())
+        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        Table::from_reader(file, &path.display().to_string())
     }
 
     /// The label naming the source in errors (usually the file path).
@@ -84,6 +90,16 @@ impl Table {
     /// Number of data rows.
     pub fn rows(&self) -> usize {
         self.columns.first().map_or(0, Vec::len)
+    }
+
+    /// Column names, in file order.
+    pub fn headers(&self) -> &[String] {
+        &self.headers
+    }
+
+    /// The columns, in the order of [`Table::headers`].
+    pub fn into_columns(self) -> Vec<Vec<f64>> {
+        self.columns
     }
 
     /// The column with one of the given names (first match), or an error naming them.
@@ -111,17 +127,37 @@ impl Table {
     }
 }
 
-/// Render columns as CSV text with the given headers (shortest exact representation of each value).
+/// Render columns as CSV text with the given headers (see [`write_csv`]).
 pub fn to_csv(headers: &[String], columns: &[Vec<f64>]) -> String {
-    let rows = columns.first().map_or(0, Vec::len);
-    let mut out = headers.join(",");
-    out.push('\n');
+    let columns: Vec<&[f64]> = columns.iter().map(Vec::as_slice).collect();
+    let mut out = Vec::new();
+    write_csv(&mut out, headers, &columns).expect("writing to memory cannot fail");
+    String::from_utf8(out).expect("the headers are UTF-8 and the numbers ASCII")
+}
+
+/// Write columns of equal length as CSV with the given headers, each value in Rust's
+/// shortest representation that parses back to the same `f64` (`{}`), row by row without
+/// allocating. `out` should be buffered.
+///
+/// # Panics
+/// If a column is shorter than the first one.
+pub fn write_csv(
+    out: &mut impl Write,
+    headers: &[String],
+    columns: &[&[f64]],
+) -> std::io::Result<()> {
+    writeln!(out, "{}", headers.join(","))?;
+    let rows = columns.first().map_or(0, |c| c.len());
     for r in 0..rows {
-        let line: Vec<String> = columns.iter().map(|c| c[r].to_string()).collect();
-        out.push_str(&line.join(","));
-        out.push('\n');
+        for (c, column) in columns.iter().enumerate() {
+            if c > 0 {
+                out.write_all(b",")?;
+            }
+            write!(out, "{}", column[r])?;
+        }
+        out.write_all(b"\n")?;
     }
-    out
+    Ok(())
 }
 
 #[cfg(test)]
