@@ -11,15 +11,17 @@ use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use powertwin::dataset::meta::{
-    BaseParamsInfo, Controller, DriveInfo, Measurement, Noise, PayloadEvent, Program, RobotInfo,
-    Seeds, Solver, StandardParams, Summary, Urdf,
+    BaseParamsInfo, DriveInfo, PayloadEvent, Program, RobotInfo, StandardParams, Summary, Urdf,
 };
 use powertwin::dataset::{Dataset, Format, Meta, SCHEMA_VERSION, truth_columns};
 use powertwin::dynamics::ParamLayout;
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
+use powertwin::twin::TwinConfig;
+use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::record::{Measured, Recording};
+use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
 use powertwin::{Error, Robot};
 use rand::Rng;
 
@@ -119,43 +121,34 @@ fn meta(robot: &Robot, truth: &Recording, measured: &Measured) -> Meta {
     let layout = ParamLayout::new(robot, true, true);
     let theta = layout.theta(robot, &(&drive).into());
     let base = BaseParams::compute(robot, layout, &SamplingOptions::default()).unwrap();
-    let dof = robot.dof();
     Meta {
         schema_version: SCHEMA_VERSION,
         program: Program::current(),
         robot: RobotInfo::new(robot, Urdf::inline(builtin::IRB1200_URDF)),
         drives: DriveInfo::per_joint(robot, &drive),
-        motor_model: "eta+copper+standby".into(),
         payloads: vec![PayloadEvent::new(0.0, &builtin::payload("tool").unwrap())],
         base_params: BaseParamsInfo::new(&base, &theta).unwrap(),
         standard_params: StandardParams::new(&layout, theta).unwrap(),
-        solver: Solver {
-            dt_s: truth.dt,
-            substeps: 4,
-            controller: Controller {
-                law: "computed torque".into(),
-                kp_per_s2: vec![400.0; dof],
-                kd_per_s: vec![40.0; dof],
+        twin: TwinConfig {
+            physics: PhysicsSettings {
+                dt: truth.dt,
+                substeps: 4,
             },
-            nominal_model_error_rel: 0.05,
+            nominal_error: 0.05,
+            nominal_seed: 7,
+            ..TwinConfig::default()
         },
-        measurement: Measurement {
+        measurement: SensorSettings {
             rate_hz: measured.rate_hz,
-            noise: Noise {
-                q_std_rad: 1e-5,
-                q_resolution_rad: 2.0 * std::f64::consts::PI / 2f64.powi(20),
-                p_joint_std_w: 0.5,
-                p_total_std_w: 2.0,
-                p_total_offset_w: 3.0,
+            power_averaging: false,
+            noise: NoiseSettings {
+                power_offset_w: 3.0,
+                ..NoiseSettings::default()
             },
+            seed: u64::MAX,
         },
-        seeds: Seeds {
-            trajectory: None,
-            nominal_model: 7,
-            noise: u64::MAX,
-        },
+        trajectory_seed: None,
         trajectory: serde_json::json!({"kind": "fourier", "harmonics": 5, "period_s": 10.0}),
-        wall_time_s: 1.25,
         summary: Summary::of(truth, measured),
     }
 }
@@ -413,7 +406,7 @@ fn records_that_disagree_with_meta_are_not_written() {
         ),
         (
             |d| d.truth.dt = 2e-3,
-            "truth.dt = 0.002 s but meta.solver.dt_s = 0.001 s",
+            "truth.dt = 0.002 s but meta.twin.physics.dt_s = 0.001 s",
         ),
         (
             |d| d.meta.summary.measured_rows = 6,
@@ -607,7 +600,9 @@ fn meta_json_round_trips_and_is_versioned() {
     assert!(v["drives"][0]["coulomb_Nm"].is_f64());
     assert!(v["summary"]["energy_total_J"].is_f64());
     assert_eq!(v["payloads"][0]["mass_kg"], 1.32);
-    assert_eq!(v["seeds"]["noise"], u64::MAX);
+    assert_eq!(v["measurement"]["seed"], u64::MAX);
+    assert_eq!(v["twin"]["physics"]["dt_s"], 0.001);
+    assert_eq!(v["twin"]["motor"], "pmsm");
     assert!(v["trajectory"]["kind"] == "fourier");
     assert_eq!(v["standard_params"]["names"][10], "fc1");
     assert_eq!(v["base_params"]["values"].as_array().unwrap().len(), 52);
@@ -637,7 +632,7 @@ fn meta_json_round_trips_and_is_versioned() {
         v.as_object_mut().unwrap().remove("schema_version");
     });
     assert!(e.contains("no schema_version"), "{e}");
-    let e = rewrite(&|v| v["solver"]["dt_ms"] = 1.into());
+    let e = rewrite(&|v| v["twin"]["physics"]["dt_ms"] = 1.into());
     assert!(e.contains("meta.json: unknown field `dt_ms`"), "{e}");
     let e = rewrite(&|v| v["robot"]["dof"] = 1_000_000_000.into());
     assert!(

@@ -11,16 +11,17 @@
 //! | `program` | `{name, version}` of the writer |
 //! | `robot` | `{name, dof, joint_names, urdf: {source: {text} or {path}, sha256}}` |
 //! | `drives` | per joint: `{joint, rotor_inertia_kgm2, coulomb_Nm, viscous_Nms_per_rad, efficiency, copper_loss_W_per_Nm2, standby_W}` (link side, as in the drive file) |
-//! | `motor_model` | name of the motor power model |
 //! | `payloads` | timeline: `[{t_s, name, mass_kg, com_m, inertia_kgm2, tcp_m}]`, flange frame `tool0` |
 //! | `standard_params` | true standard parameters: `{friction, armature, names, values}` |
 //! | `base_params` | true base parameters: `{names, values, relations}` |
-//! | `solver` | `{dt_s, substeps, controller: {law, kp_per_s2, kd_per_s}, nominal_model_error_rel}` |
-//! | `measurement` | `{rate_hz, noise: {q_std_rad, q_resolution_rad, p_joint_std_W, p_total_std_W, p_total_offset_W}}` |
-//! | `seeds` | `{trajectory (optional), nominal_model, noise}` |
+//! | `twin` | physics, controller and motor settings ([`TwinConfig`]): `{physics: {dt_s, substeps}, gains: {kp_per_s2, kd_per_s}, motor, nominal_error_rel, nominal_seed}` |
+//! | `measurement` | logger settings ([`SensorSettings`]): `{rate_hz, power_averaging, noise: {encoder_resolution_rad, encoder_sigma_rad, joint_power_sigma_W, power_sigma_W, power_offset_W}, seed}` |
+//! | `trajectory_seed` | seed of a randomly generated trajectory (optional) |
 //! | `trajectory` | free-form description written by the trajectory's owner |
-//! | `wall_time_s` | wall-clock time of the run |
 //! | `summary` | `{duration_s, energy_total_J, energy_grid_J, truth_rows, measured_rows}` |
+//!
+//! Nothing run-dependent but the data is stored (no wall time, no host), so the same inputs
+//! give byte-identical datasets.
 //!
 //! A reader first checks `schema_version` and refuses versions it does not know. Any change
 //! to keys or meanings increments it.
@@ -34,7 +35,9 @@ use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::model::drive::Drive;
 use crate::model::payload::Payload;
+use crate::twin::TwinConfig;
 use crate::twin::record::{Measured, Recording};
+use crate::twin::sensor::SensorSettings;
 
 /// Version of the `meta.json` schema this build writes and reads.
 pub const SCHEMA_VERSION: u32 = 1;
@@ -51,8 +54,6 @@ pub struct Meta {
     pub robot: RobotInfo,
     /// True drive parameters per joint, robot joint order.
     pub drives: Vec<DriveInfo>,
-    /// Name of the motor power model that produced `p_elec` (e.g. `"eta+copper+standby"`).
-    pub motor_model: String,
     /// Payloads attached to the flange, in time order; each applies from its `t_s` until the
     /// next one (an empty list means no payload throughout).
     pub payloads: Vec<PayloadEvent>,
@@ -60,16 +61,14 @@ pub struct Meta {
     pub standard_params: StandardParams,
     /// True base parameters derived from [`Meta::standard_params`].
     pub base_params: BaseParamsInfo,
-    /// Physics and control settings.
-    pub solver: Solver,
-    /// Logger settings of the measured stream.
-    pub measurement: Measurement,
-    /// Random seeds.
-    pub seeds: Seeds,
+    /// Physics, controller and motor-model settings.
+    pub twin: TwinConfig,
+    /// Logger settings of the measured stream (rate, noise, noise seed).
+    pub measurement: SensorSettings,
+    /// Seed of a randomly generated trajectory (`None` for a given one).
+    pub trajectory_seed: Option<u64>,
     /// Free-form description of the reference trajectory (kind, parameters, duration, ...).
     pub trajectory: serde_json::Value,
-    /// Wall-clock time the twin run took, s.
-    pub wall_time_s: f64,
     /// Figures computed from the recorded data ([`Summary::of`]).
     pub summary: Summary,
 }
@@ -229,6 +228,21 @@ pub struct PayloadEvent {
 }
 
 impl PayloadEvent {
+    /// The twin's event: `payload` attached from `t_s` (s) on, or nothing (`None`, mass 0).
+    pub fn of(event: &crate::twin::PayloadEvent) -> Self {
+        match &event.payload {
+            Some(p) => Self::new(event.t_s, p),
+            None => PayloadEvent {
+                t_s: event.t_s,
+                name: "none".into(),
+                mass_kg: 0.0,
+                com_m: [0.0; 3],
+                inertia_kgm2: [0.0; 6],
+                tcp_m: None,
+            },
+        }
+    }
+
     /// `payload` attached from `t_s` (s) on.
     pub fn new(t_s: f64, payload: &Payload) -> Self {
         let b = &payload.inertia;
@@ -308,75 +322,6 @@ impl BaseParamsInfo {
             relations: base.relations(),
         })
     }
-}
-
-/// Physics and control settings of the run.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Solver {
-    /// Physics (and truth-table) step, s; [`Recording::dt`] when read back.
-    pub dt_s: f64,
-    /// Rapier substeps per physics step.
-    pub substeps: u32,
-    /// The tracking controller.
-    pub controller: Controller,
-    /// Relative standard deviation of the multiplicative error applied to each standard
-    /// parameter of the controller's nominal model (0: the controller knows the true model).
-    pub nominal_model_error_rel: f64,
-}
-
-/// Joint-space tracking controller: `ddq_cmd = ddq_ref + kd (dq_ref - dq) + kp (q_ref - q)`
-/// turned into torque through the nominal model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Controller {
-    /// Name of the control law (e.g. `"computed torque"`).
-    pub law: String,
-    /// Position gain per joint, 1/s^2.
-    pub kp_per_s2: Vec<f64>,
-    /// Velocity gain per joint, 1/s.
-    pub kd_per_s: Vec<f64>,
-}
-
-/// Settings of the logged measurement stream.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Measurement {
-    /// Sample rate, Hz; [`Measured::rate_hz`] when read back.
-    pub rate_hz: f64,
-    /// Sensor noise.
-    pub noise: Noise,
-}
-
-/// Sensor noise models (zero-mean Gaussian unless stated).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Noise {
-    /// Joint position noise standard deviation, rad.
-    pub q_std_rad: f64,
-    /// Encoder quantisation step, rad (0: none).
-    pub q_resolution_rad: f64,
-    /// Per-motor power noise standard deviation, W.
-    #[serde(rename = "p_joint_std_W")]
-    pub p_joint_std_w: f64,
-    /// Power meter noise standard deviation, W.
-    #[serde(rename = "p_total_std_W")]
-    pub p_total_std_w: f64,
-    /// Constant power meter offset, W.
-    #[serde(rename = "p_total_offset_W")]
-    pub p_total_offset_w: f64,
-}
-
-/// Seeds of the random number generators of the run.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Seeds {
-    /// Seed of a randomly generated trajectory (`null` for a deterministic one).
-    pub trajectory: Option<u64>,
-    /// Seed of the nominal-model error.
-    pub nominal_model: u64,
-    /// Seed of the sensor noise.
-    pub noise: u64,
 }
 
 /// Summary figures of the recorded data.

@@ -9,16 +9,18 @@
 //! Every column is `f64` with its unit in its name ([`truth_columns`], [`measured_columns`]);
 //! every value is finite. Both formats give back exactly the values written (same bits):
 //! Parquet stores IEEE doubles, CSV the shortest decimal that parses back to the same double.
-//! The time step and the sample rate, which are not columns, are `meta.solver.dt_s` and
-//! `meta.measurement.rate_hz`.
+//! The time step and the sample rate, which are not columns, are `meta.twin.physics.dt_s`
+//! and `meta.measurement.rate_hz`.
 //!
 //! [`Dataset::write`] is atomic and deterministic: the same dataset gives byte-identical
 //! files. [`Dataset::read`] detects the format and checks the columns, their lengths against
 //! `meta.json` and every value.
 
 mod atomic;
+pub mod bulk;
 mod columns;
 mod csv;
+pub mod generate;
 pub mod meta;
 mod parquet;
 
@@ -109,7 +111,7 @@ impl FromStr for Format {
 /// A twin run: metadata, ground truth and measurements.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
-    /// Settings, true parameters and summary; its `robot.dof`, `solver.dt_s`,
+    /// Settings, true parameters and summary; its `robot.dof`, `twin.physics.dt_s`,
     /// `measurement.rate_hz` and `summary` row counts must agree with the records.
     pub meta: Meta,
     /// Ground truth at the physics rate.
@@ -178,7 +180,7 @@ impl Dataset {
         let truth_cols = read(TRUTH, &truth_columns(dof), meta.summary.truth_rows)?;
         let measured_cols = read(MEASURED, &measured_columns(dof), meta.summary.measured_rows)?;
         let mut truth: Recording = columns::record(columns::TRUTH, dof, truth_cols);
-        truth.dt = meta.solver.dt_s;
+        truth.dt = meta.twin.physics.dt;
         let mut measured: Measured = columns::record(columns::MEASURED, dof, measured_cols);
         measured.rate_hz = meta.measurement.rate_hz;
         Ok(Dataset {
@@ -192,10 +194,10 @@ impl Dataset {
     /// sample rate and the row counts).
     fn check_agreement(&self) -> std::result::Result<(), String> {
         let m = &self.meta;
-        if self.truth.dt.to_bits() != m.solver.dt_s.to_bits() {
+        if self.truth.dt.to_bits() != m.twin.physics.dt.to_bits() {
             return Err(format!(
-                "truth.dt = {} s but meta.solver.dt_s = {} s",
-                self.truth.dt, m.solver.dt_s
+                "truth.dt = {} s but meta.twin.physics.dt_s = {} s",
+                self.truth.dt, m.twin.physics.dt
             ));
         }
         if self.measured.rate_hz.to_bits() != m.measurement.rate_hz.to_bits() {
@@ -236,14 +238,6 @@ fn check_meta(meta: &Meta) -> std::result::Result<(), String> {
     let per_joint = [
         ("robot.joint_names", meta.robot.joint_names.len()),
         ("drives", meta.drives.len()),
-        (
-            "solver.controller.kp_per_s2",
-            meta.solver.controller.kp_per_s2.len(),
-        ),
-        (
-            "solver.controller.kd_per_s",
-            meta.solver.controller.kd_per_s.len(),
-        ),
     ];
     for (key, len) in per_joint {
         if len != dof {
@@ -272,7 +266,7 @@ fn check_meta(meta: &Meta) -> std::result::Result<(), String> {
         }
     }
     let rates = [
-        ("solver.dt_s", meta.solver.dt_s),
+        ("twin.physics.dt_s", meta.twin.physics.dt),
         ("measurement.rate_hz", meta.measurement.rate_hz),
     ];
     for (key, v) in rates {

@@ -20,10 +20,19 @@ const MAX_ITERATIONS: usize = 100;
 
 /// Identify `model` (filled in place, not efficiency-scaled) from total power `p` (W) at the
 /// samples of `states`.
-pub fn identify(robot: &Robot, model: &mut PowerModel, states: &States, p: &[f64]) -> Result<Estimate> {
+pub fn identify(
+    robot: &Robot,
+    model: &mut PowerModel,
+    states: &States,
+    p: &[f64],
+) -> Result<Estimate> {
     model.check_robot(robot)?;
     if p.len() != states.len() {
-        return Err(Error::InvalidInput(format!("{} power samples for {} states", p.len(), states.len())));
+        return Err(Error::InvalidInput(format!(
+            "{} power samples for {} states",
+            p.len(),
+            states.len()
+        )));
     }
     model.efficiency_scaled = false;
     linear::identify(robot, model, states, Observation::TotalPower, p)?;
@@ -58,7 +67,9 @@ pub fn identify(robot: &Robot, model: &mut PowerModel, states: &States, p: &[f64
             r[m] = pm - p[m];
             if let Some(j) = jac.as_deref_mut() {
                 for k in 0..nb {
-                    j[(m, k)] = (0..n).map(|i| (v[i] + 2.0 * z[nb + i] * tau[i]) * wm[(i, k)]).sum();
+                    j[(m, k)] = (0..n)
+                        .map(|i| (v[i] + 2.0 * z[nb + i] * tau[i]) * wm[(i, k)])
+                        .sum();
                 }
                 for i in 0..n {
                     j[(m, nb + i)] = tau[i] * tau[i];

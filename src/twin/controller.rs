@@ -16,10 +16,13 @@ use crate::model::{RigidInertia, Robot};
 
 /// PD gains on the tracking error.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Gains {
     /// Position gain, 1/s^2.
+    #[serde(rename = "kp_per_s2")]
     pub kp: f64,
     /// Velocity gain, 1/s.
+    #[serde(rename = "kd_per_s")]
     pub kd: f64,
 }
 

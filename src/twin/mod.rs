@@ -39,6 +39,7 @@ pub struct PayloadEvent {
 
 /// Settings of a twin run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TwinConfig {
     /// Physics step and substeps.
     pub physics: PhysicsSettings,
@@ -47,6 +48,7 @@ pub struct TwinConfig {
     /// Motor model for electrical power.
     pub motor: MotorModel,
     /// Relative error of the controller's nominal model (0 = the true model).
+    #[serde(rename = "nominal_error_rel")]
     pub nominal_error: f64,
     /// Seed of the nominal-model perturbation.
     pub nominal_seed: u64,

@@ -28,8 +28,10 @@ use crate::model::{RigidInertia, Robot};
 
 /// Integration settings of the physics.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PhysicsSettings {
     /// Step of the simulation (controller period; torques are held over it), s.
+    #[serde(rename = "dt_s")]
     pub dt: f64,
     /// Rapier substeps per step (`num_solver_iterations`): the integration step is `dt / substeps`.
     pub substeps: usize,

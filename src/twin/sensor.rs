@@ -90,6 +90,7 @@ impl Default for NoiseSettings {
 
 /// Logger settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SensorSettings {
     /// Sample rate, Hz.
     pub rate_hz: f64,
@@ -119,21 +120,30 @@ fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+impl SensorSettings {
+    /// Physics steps per sample for a physics step `dt` (s); an error unless the sample
+    /// period is a positive whole number of steps.
+    pub fn stride(&self, dt: f64) -> Result<usize> {
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "sample rate {} Hz must be positive",
+                self.rate_hz
+            )));
+        }
+        let stride = (1.0 / (self.rate_hz * dt)).round() as usize;
+        if stride == 0 || ((stride as f64) * dt * self.rate_hz - 1.0).abs() > 1e-9 {
+            return Err(Error::InvalidInput(format!(
+                "sample period 1/{} s must be a whole number of physics steps ({} s)",
+                self.rate_hz, dt
+            )));
+        }
+        Ok(stride)
+    }
+}
+
 /// Sample the recording as the logger would.
 pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
-    if !(s.rate_hz.is_finite() && s.rate_hz > 0.0) {
-        return Err(Error::InvalidInput(format!(
-            "sample rate {} Hz must be positive",
-            s.rate_hz
-        )));
-    }
-    let stride = (1.0 / (s.rate_hz * rec.dt)).round() as usize;
-    if stride == 0 || ((stride as f64) * rec.dt * s.rate_hz - 1.0).abs() > 1e-9 {
-        return Err(Error::InvalidInput(format!(
-            "sample period 1/{} s must be a whole number of physics steps ({} s)",
-            s.rate_hz, rec.dt
-        )));
-    }
+    let stride = s.stride(rec.dt)?;
     let n = rec.q.len();
     let mut rng = ChaCha8Rng::seed_from_u64(s.seed);
     let mut m = Measured {

@@ -1,0 +1,182 @@
+//! Bulk ground truth: a global set of randomised twin runs, defined item by item by
+//! `(seed, index)` alone, so any process can produce any item and shards of the set never
+//! overlap (see `docs/bulk-datasets.md`).
+//!
+//! Item `j` draws, from an RNG seeded with `splitmix64(seed ^ splitmix64(j))`:
+//! - the trajectory: with probability 1/2 a rest-to-rest Fourier excitation (0.1 Hz, 5
+//!   harmonics, one 10 s period), else a point-to-point motion through 5 random via points
+//!   (quintic segments at up to 90 % of the velocity and acceleration limits, slowed down
+//!   by a random factor in [1, 2]);
+//! - the payload, attached throughout: none, the 1.32 kg tool, or the tool plus a steel cube
+//!   of 0.5–4 kg at the tool centre point (1/3 each);
+//! - the drive parameters: Coulomb and viscous friction, rotor inertia, copper-loss
+//!   coefficient and standby power each scaled by a factor in [0.7, 1.3] from the base drive
+//!   file; efficiency uniform in [0.83, 0.92] (the paper's range).
+//! - the sensor-noise seed.
+//!
+//! The physics, controller, motor model and noise levels are the caller's.
+
+use nalgebra::Vector3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde_json::json;
+
+use crate::dataset::Dataset;
+use crate::dataset::generate::{RunSpec, simulate};
+use crate::dataset::meta::Urdf;
+use crate::error::{Error, Result};
+use crate::model::drive::{Drive, JointDrive};
+use crate::model::payload::Payload;
+use crate::model::{RigidInertia, Robot};
+use crate::trajectory::Trajectory;
+use crate::trajectory::random::{
+    RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
+};
+use crate::twin::sensor::SensorSettings;
+use crate::twin::{PayloadEvent, RunReport, TwinConfig};
+
+/// Which items of the global set a process produces: those with `index % count == shard`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, `0..count`.
+    pub index: usize,
+    /// Number of shards.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = Error;
+
+    /// Parse `K/N` with `0 <= K < N`.
+    fn from_str(s: &str) -> Result<Shard> {
+        let bad = || {
+            Error::InvalidInput(format!(
+                "shard '{s}' must be K/N with 0 <= K < N (e.g. 3/16)"
+            ))
+        };
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count): (usize, usize) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+impl Shard {
+    /// The whole set.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// The item indices of this shard among `total` items.
+    pub fn items(&self, total: usize) -> impl Iterator<Item = usize> + '_ {
+        (self.index..total).step_by(self.count)
+    }
+}
+
+/// What stays the same for every item.
+pub struct BulkSpec<'a> {
+    /// The robot.
+    pub robot: &'a Robot,
+    /// Its URDF for `meta.json`.
+    pub urdf: Urdf,
+    /// Base drive parameters that items vary around.
+    pub drive: &'a Drive,
+    /// The 1.32 kg tool (and TCP) used by items with a payload.
+    pub tool: &'a Payload,
+    /// Physics, controller and motor settings.
+    pub twin: TwinConfig,
+    /// Logger settings (the noise seed is drawn per item).
+    pub sensor: SensorSettings,
+    /// Global seed.
+    pub seed: u64,
+}
+
+fn splitmix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// A steel cube of `mass` kg with its centre at `at` (flange frame, m).
+fn steel_cube(mass: f64, at: Vector3<f64>) -> Payload {
+    let side = (mass / 7850.0).cbrt();
+    let i = mass * side * side / 6.0;
+    Payload {
+        name: format!("steel cube {mass:.3} kg"),
+        inertia: RigidInertia::new(mass, at, [i, i, i, 0.0, 0.0, 0.0]),
+        tcp: None,
+    }
+}
+
+/// Generate item `index` of the global set.
+pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
+    let item_seed = splitmix64(spec.seed ^ splitmix64(index as u64));
+    let mut rng = ChaCha8Rng::seed_from_u64(item_seed);
+    let robot = spec.robot;
+    let (traj, description): (Box<dyn Trajectory>, serde_json::Value) = if rng.random_bool(0.5) {
+        let o = RandomFourierOptions::default();
+        let f = random_fourier(robot, &mut rng, &o)?;
+        let d = json!({"kind": "random fourier", "base_freq_hz": o.base_freq_hz, "harmonics": o.harmonics, "periods": o.periods,
+            "q0_rad": f.q0(), "a_rad": f.a(), "b_rad": f.b()});
+        (Box::new(f), d)
+    } else {
+        let o = RandomPointToPointOptions::default();
+        let p = random_point_to_point(robot, &mut rng, &o)?;
+        let d = json!({"kind": "random point to point", "points_rad": p.points(), "arrival_times_s": p.arrival_times()});
+        (Box::new(p), d)
+    };
+    let payload = match rng.random_range(0..3) {
+        0 => None,
+        1 => Some(spec.tool.clone()),
+        _ => {
+            let at = spec.tool.tcp.unwrap_or_else(Vector3::zeros);
+            Some(
+                spec.tool
+                    .combined(&steel_cube(rng.random_range(0.5..4.0), at)),
+            )
+        }
+    };
+    let joints: Vec<JointDrive> = spec
+        .drive
+        .joints()
+        .iter()
+        .map(|j| {
+            let mut f = || rng.random_range(0.7..1.3);
+            let mut d = *j;
+            d.friction.coulomb *= f();
+            d.friction.viscous *= f();
+            d.rotor_inertia *= f();
+            d.copper_loss *= f();
+            d.standby_power *= f();
+            d.efficiency = rng.random_range(0.83..0.92);
+            d
+        })
+        .collect();
+    let drive = Drive::new(robot, joints)?;
+    let events: Vec<PayloadEvent> = payload
+        .map(|p| PayloadEvent {
+            t_s: 0.0,
+            payload: Some(p),
+        })
+        .into_iter()
+        .collect();
+    let sensor = SensorSettings {
+        seed: rng.random(),
+        ..spec.sensor
+    };
+    simulate(&RunSpec {
+        robot,
+        urdf: spec.urdf.clone(),
+        drive: &drive,
+        events: &events,
+        twin: spec.twin.clone(),
+        sensor,
+        trajectory: traj.as_ref(),
+        trajectory_description: json!({"item": index, "global_seed": spec.seed, "trajectory": description}),
+        trajectory_seed: Some(item_seed),
+    })
+}
