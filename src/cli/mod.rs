@@ -146,7 +146,7 @@ pub struct TwinArgs {
     #[arg(long, default_value_t = 10.0)]
     sample_rate: f64,
     /// Sensor noise: a noise TOML file, or `none` [default: encoder 6e-6 rad steps + 1e-5 rad
-    /// noise, 0.5 W per motor, 1 W + 0.5 W offset on the total power].
+    /// noise, 0.5 W per motor, 1 W on the total power].
     #[arg(long, value_name = "PATH|none")]
     noise: Option<String>,
     /// Average power over each sample period instead of sampling it.

@@ -8,3 +8,4 @@ pub mod lsq;
 pub mod model;
 pub mod pmsm;
 pub mod states;
+pub mod steps;

@@ -139,6 +139,11 @@ pub struct Excitation {
     pub wall_s: f64,
 }
 
+/// The optimiser sees limits shrunk by this factor (and the workspace grown by 0.02 m), so
+/// the quadratic penalties, which tolerate tiny violations, leave the result strictly inside
+/// the real limits.
+const OPTIMISATION_TIGHTENING: f64 = 0.98;
+
 /// The problem: fixed data shared by all objective evaluations.
 struct Problem<'a> {
     robot: &'a Robot,
@@ -171,8 +176,9 @@ impl Problem<'_> {
     }
 
     /// Regressor of the identified columns over one period (columns unit-norm scaled) and
-    /// the constraint penalty.
-    fn evaluate(&self, traj: &Fourier) -> (DMatrix<f64>, f64) {
+    /// the constraint penalty, with the limits shrunk by the factor `tighten` (<= 1) and the
+    /// workspace grown by `(1 - tighten)` m, so that the optimiser keeps a safety distance.
+    fn evaluate(&self, traj: &Fourier, tighten: f64) -> (DMatrix<f64>, f64) {
         let o = self.opts;
         let robot = self.robot;
         let n = robot.dof();
@@ -190,16 +196,14 @@ impl Problem<'_> {
         for s in 0..o.samples {
             let t = period * s as f64 / o.samples as f64;
             traj.sample(t, &mut q, &mut dq, &mut ddq);
+            let extra = 1.0 - tighten;
             for (i, jn) in robot.joints().iter().enumerate() {
-                let lo = jn.limits.lower + o.position_margin;
-                let hi = jn.limits.upper - o.position_margin;
+                let lo = jn.limits.lower + o.position_margin + extra;
+                let hi = jn.limits.upper - o.position_margin - extra;
+                let (vmax, amax) = (self.vmax[i] * tighten, self.amax[i] * tighten);
                 penalty += (lo - q[i]).max(0.0).powi(2) + (q[i] - hi).max(0.0).powi(2);
-                penalty += ((dq[i].abs() - self.vmax[i]) / self.vmax[i])
-                    .max(0.0)
-                    .powi(2);
-                penalty += ((ddq[i].abs() - self.amax[i]) / self.amax[i])
-                    .max(0.0)
-                    .powi(2);
+                penalty += ((dq[i].abs() - vmax) / vmax).max(0.0).powi(2);
+                penalty += ((ddq[i].abs() - amax) / amax).max(0.0).powi(2);
             }
             link_poses(robot, &q, &mut poses);
             let flange = poses[n - 1] * robot.flange();
@@ -208,9 +212,9 @@ impl Problem<'_> {
                 flange.translation.vector,
             ];
             for p in points {
-                penalty += (o.floor_z - p.z).max(0.0).powi(2) * 100.0;
+                penalty += (o.floor_z + extra - p.z).max(0.0).powi(2) * 100.0;
                 let r = Vector3::new(p.x, p.y, 0.0).norm();
-                penalty += (o.base_radius - r).max(0.0).powi(2) * 100.0;
+                penalty += (o.base_radius + extra - r).max(0.0).powi(2) * 100.0;
             }
             regressor(robot, &mut ws, &o.layout, &q, &dq, &ddq, &mut w);
             for (k, &c) in self.columns.iter().enumerate() {
@@ -248,7 +252,7 @@ impl Problem<'_> {
         let Ok(traj) = self.trajectory(x) else {
             return 1e6;
         };
-        let (a, penalty) = self.evaluate(&traj);
+        let (a, penalty) = self.evaluate(&traj, OPTIMISATION_TIGHTENING);
         let (cond, smin) = Self::conditioning(&a);
         let base = if cond.is_finite() { cond.ln() } else { 50.0 };
         let extra = match self.opts.criterion {
@@ -368,7 +372,7 @@ pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
         }
         let cond0 = problem
             .trajectory(&x0)
-            .map(|t| Problem::conditioning(&problem.evaluate(&t).0).0)
+            .map(|t| Problem::conditioning(&problem.evaluate(&t, 1.0).0).0)
             .unwrap_or(f64::INFINITY);
         let objective = |x: &cmaes::DVector<f64>| problem.objective(x.as_slice());
         let mut state = cmaes::CMAESOptions::new(x0, 0.1)
@@ -387,8 +391,8 @@ pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
     let (_, x, cond_initial) =
         best.ok_or_else(|| Error::InvalidInput("CMA-ES found no point".into()))?;
     let trajectory = problem.trajectory(&x)?;
-    let (a, penalty) = problem.evaluate(&trajectory);
-    if penalty > 1e-9 {
+    let (a, penalty) = problem.evaluate(&trajectory, 1.0);
+    if penalty > 0.0 {
         return Err(Error::JointLimit(format!(
             "the optimised excitation still violates limits or the workspace (penalty {penalty:.3e}); widen the limits or reduce the harmonics"
         )));

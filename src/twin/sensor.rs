@@ -76,14 +76,15 @@ impl NoiseSettings {
 
 impl Default for NoiseSettings {
     /// A 20-bit-per-turn class encoder at the link (6e-6 rad steps) with 1e-5 rad noise, 0.5 W
-    /// noise per motor, and a power meter with 1 W noise and 0.5 W offset.
+    /// noise per motor, and a calibrated power meter with 1 W noise (no offset: an offset is
+    /// indistinguishable from standby power and would be identified as such).
     fn default() -> Self {
         NoiseSettings {
             encoder_resolution_rad: std::f64::consts::TAU / (1u64 << 20) as f64,
             encoder_sigma_rad: 1e-5,
             joint_power_sigma_w: 0.5,
             power_sigma_w: 1.0,
-            power_offset_w: 0.5,
+            power_offset_w: 0.0,
         }
     }
 }
