@@ -245,7 +245,16 @@ fn window_energy_estimator_recovers_a_known_model_exactly() {
         })
         .collect();
     let mut est_model = PowerModel::new(&robot, layout, false).unwrap();
-    let est = energy::identify(&robot, &mut est_model, &traj, &t, &e).unwrap();
+    let est = energy::identify(
+        &robot,
+        &mut est_model,
+        &[energy::Windows {
+            motion: &traj,
+            t: &t,
+            energy: &e,
+        }],
+    )
+    .unwrap();
     // Limited by Simpson on |dq| at velocity reversals and the trapezoidal reference.
     assert!(est.residual_rms < 1e-4, "{}", est.residual_rms);
     for (k, (a, b)) in est_model.theta.iter().zip(&truth.theta).enumerate() {
@@ -258,5 +267,16 @@ fn window_energy_estimator_recovers_a_known_model_exactly() {
         );
     }
     assert!((est_model.constant[0] - 42.0).abs() < 1e-4);
-    assert!(energy::identify(&robot, &mut est_model, &traj, &t, &e[1..]).is_err());
+    assert!(
+        energy::identify(
+            &robot,
+            &mut est_model,
+            &[energy::Windows {
+                motion: &traj,
+                t: &t,
+                energy: &e[1..]
+            }]
+        )
+        .is_err()
+    );
 }

@@ -21,6 +21,8 @@ macro_rules! out {
 mod base_params;
 mod dataset;
 mod dynamics;
+mod excite;
+mod identify;
 mod model;
 mod reproduce;
 mod simulate;
@@ -65,6 +67,12 @@ enum Command {
     Dynamics(dynamics::DynamicsArgs),
     /// Base (minimal) parameters: count, independent set, regrouping relations and values.
     BaseParams(base_params::BaseParamsArgs),
+    /// Design an optimised Fourier excitation trajectory for identification.
+    Excite(excite::ExciteArgs),
+    /// Identify base parameters (and motor losses) from the power in datasets.
+    Identify(identify::IdentifyArgs),
+    /// Predict the energy of a dataset's motion with an identified model.
+    Predict(identify::PredictArgs),
     /// Run the Rapier twin along a trajectory and write a ground-truth dataset.
     Simulate(simulate::SimulateArgs),
     /// Generate many randomised ground-truth datasets in parallel (shardable).
@@ -259,6 +267,9 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Model(a) => model::run(&a),
         Command::Dynamics(a) => dynamics::run(&a),
         Command::BaseParams(a) => base_params::run(&a),
+        Command::Excite(a) => excite::run(&a),
+        Command::Identify(a) => identify::run_identify(&a),
+        Command::Predict(a) => identify::run_predict(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Dataset(a) => dataset::run(&a),
     }

@@ -105,32 +105,49 @@ fn variation(q0: f64, v0: f64, a0: f64, q1: f64, v1: f64) -> f64 {
     }
 }
 
-/// Identify `model` (filled in place, constant power on joint 1) from window energies
-/// `energy[m]` (J) of the windows `[t_m, t_{m+1}]` along `traj`.
-pub fn identify(
-    robot: &Robot,
-    model: &mut PowerModel,
-    traj: &dyn Trajectory,
-    t: &[f64],
-    energy: &[f64],
-) -> Result<Estimate> {
+/// One dataset's windows: the motion, the sample times (s) and the energies (J) of the
+/// windows between consecutive samples.
+pub struct Windows<'a> {
+    /// Continuous motion through the samples.
+    pub motion: &'a dyn Trajectory,
+    /// Sample times, s.
+    pub t: &'a [f64],
+    /// Energy of each window `[t_m, t_m+1]`, J (one fewer than `t`).
+    pub energy: &'a [f64],
+}
+
+/// Identify `model` (filled in place, constant power on joint 1) from the window energies of
+/// one or more datasets.
+pub fn identify(robot: &Robot, model: &mut PowerModel, data: &[Windows]) -> Result<Estimate> {
     model.check_robot(robot)?;
-    if t.len() < 2 || energy.len() + 1 != t.len() {
-        return Err(Error::InvalidInput(format!(
-            "{} window energies for {} sample times (need one fewer)",
-            energy.len(),
-            t.len()
-        )));
+    let nb = model.columns.len();
+    let mut blocks = Vec::with_capacity(data.len());
+    let mut y = Vec::new();
+    for (d, w) in data.iter().enumerate() {
+        if w.t.len() < 2 || w.energy.len() + 1 != w.t.len() {
+            return Err(Error::InvalidInput(format!(
+                "dataset {}: {} window energies for {} sample times (need one fewer)",
+                d + 1,
+                w.energy.len(),
+                w.t.len()
+            )));
+        }
+        blocks.push(rows(robot, model, w.motion, w.t));
+        y.extend_from_slice(w.energy);
     }
-    let a = rows(robot, model, traj, t);
+    let mut a = DMatrix::zeros(y.len(), nb + 1);
+    let mut r0 = 0;
+    for b in &blocks {
+        a.view_mut((r0, 0), b.shape()).copy_from(b);
+        r0 += b.nrows();
+    }
     let names: Vec<String> = model
         .names
         .iter()
         .cloned()
         .chain(["P0_W".to_string()])
         .collect();
-    let est = solve(&a, &DVector::from_column_slice(energy), &names)?;
-    let nb = model.columns.len();
+    let est = solve(&a, &DVector::from_column_slice(&y), &names)?;
     model.theta.copy_from_slice(&est.values[..nb]);
     model.constant.fill(0.0);
     model.constant[0] = est.values[nb];
