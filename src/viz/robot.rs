@@ -2,8 +2,8 @@
 
 use nalgebra::Isometry3;
 use rerun::{
-    Boxes3D, Capsules3D, Color, Cylinders3D, Ellipsoids3D, Points3D, Quaternion, TimeColumn,
-    Transform3D, ViewCoordinates,
+    Boxes3D, Capsules3D, Color, Cylinders3D, Ellipsoids3D, FillMode, Points3D, Quaternion,
+    TimeColumn, Transform3D, ViewCoordinates,
 };
 
 use super::{TIMELINE, Viz, entity, viz_err};
@@ -61,23 +61,29 @@ impl Viz {
         let res = match &shape.geometry {
             Geometry::Box { size } => self.rec.log_static(
                 path,
-                &Boxes3D::from_sizes([size.map(|v| v as f32)]).with_colors([color]),
+                &Boxes3D::from_sizes([size.map(|v| v as f32)])
+                    .with_colors([color])
+                    .with_fill_mode(FillMode::Solid),
             ),
             Geometry::Cylinder { radius, length } => self.rec.log_static(
                 path,
                 &Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
-                    .with_colors([color]),
+                    .with_colors([color])
+                    .with_fill_mode(FillMode::Solid),
             ),
             // Rerun's capsule runs from z = 0 to z = length; powertwin's is centred.
             Geometry::Capsule { radius, length } => self.rec.log_static(
                 path,
                 &Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
                     .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
-                    .with_colors([color]),
+                    .with_colors([color])
+                    .with_fill_mode(FillMode::Solid),
             ),
             Geometry::Sphere { radius } => self.rec.log_static(
                 path,
-                &Ellipsoids3D::from_radii([*radius as f32]).with_colors([color]),
+                &Ellipsoids3D::from_radii([*radius as f32])
+                    .with_colors([color])
+                    .with_fill_mode(FillMode::Solid),
             ),
             Geometry::Mesh { filename, .. } => self.rec.log_static(
                 path,
