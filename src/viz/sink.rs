@@ -16,8 +16,8 @@ const INSTALL_HINT: &str = "install the viewer with `pip install rerun-sdk==0.36
 /// A destination of a [`super::Viz`] recording.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Sink {
-    /// Start the `rerun` viewer found on `PATH` (or use one already listening on the default
-    /// local port 9876) and stream to it.
+    /// Start the `rerun` viewer found on `PATH`, listening on 127.0.0.1:9876 only (or use one
+    /// already listening on that port), and stream to it.
     Spawn,
     /// Stream to a running viewer or server at a Rerun proxy URL
     /// (`rerun+http://HOST:PORT/proxy`); `None` is the local default
@@ -32,7 +32,12 @@ impl Sink {
     pub(super) fn open(&self) -> Result<Box<dyn LogSink>> {
         match self {
             Sink::Spawn => {
-                let info = rerun::spawn(&rerun::SpawnOptions::default()).map_err(|e| match e {
+                // The viewer's own default binds every interface; localhost is enough here.
+                let opts = rerun::SpawnOptions {
+                    extra_args: vec!["--bind".into(), "127.0.0.1".into()],
+                    ..Default::default()
+                };
+                let info = rerun::spawn(&opts).map_err(|e| match e {
                     rerun::SpawnError::ExecutableNotFoundInPath { .. } => Error::Viz(format!(
                         "no Rerun viewer (`rerun`) found on PATH: {INSTALL_HINT}"
                     )),
