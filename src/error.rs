@@ -73,6 +73,11 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// Rerun logging failed: a viewer could not be spawned or reached, an `.rrd` file could
+    /// not be written, or the data could not be encoded.
+    #[cfg(feature = "viz")]
+    #[error("Rerun: {0}")]
+    Viz(String),
 }
 
 impl Error {

@@ -9,6 +9,8 @@
 //! [`model`] (URDF, drives, payloads) -> [`kinematics`] -> [`dynamics`] (RNEA, regressor,
 //! mass matrix, base parameters) -> [`trajectory`] -> [`twin`] (Rapier, controller, motor
 //! and sensor models) -> [`dataset`] -> later stages (identification, energy, validation).
+//! `viz` (cargo feature `viz`, off by default for now: build with `--features viz`) logs the robot, runs and results to the Rerun
+//! viewer after the fact.
 //!
 //! Units are SI everywhere (m, rad, kg, s, N m, W, J); frames are described in [`model`].
 
@@ -21,6 +23,8 @@ pub mod kinematics;
 pub mod model;
 pub mod trajectory;
 pub mod twin;
+#[cfg(feature = "viz")]
+pub mod viz;
 
 pub use error::{Error, Result};
 pub use model::Robot;

@@ -1,0 +1,137 @@
+//! Rerun views of the robot, of twin runs and of results (cargo feature `viz`, on by default).
+//!
+//! Everything is logged after a run, in bulk: time series go out as columns
+//! (`send_columns`), decimated to a display rate ([`DEFAULT_DISPLAY_HZ`]), so logging costs
+//! the twin nothing while it runs. Time is the duration timeline [`TIMELINE`] (`sim_time`, s).
+//!
+//! # Entity tree
+//! A `prefix` (e.g. `"run"`, may be empty) keeps several runs apart. Units are in the leaf
+//! names, which are also the series names in the plots.
+//!
+//! | entity | what | logged by |
+//! |---|---|---|
+//! | `{prefix}/robot` | base frame (z up), 3-D view origin | [`Viz::log_robot`], [`Viz::log_recording`] |
+//! | `{prefix}/robot/base/visual_k` | base shapes | same |
+//! | `{prefix}/robot/link_i/visual_k` | shapes of link `i` (1-based) in its MDH frame | same |
+//! | `{prefix}/robot/link_i` | pose of link frame `i` in the base frame, on `sim_time` | same |
+//! | `{prefix}/robot/flange_path` | path of the flange origin, m (line strip) | [`Viz::log_recording`] |
+//! | `{prefix}/joints/q/q{i}_rad`, `joints/dq/dq{i}_rad_s`, `joints/tau/tau{i}_Nm` | joint signals | [`Viz::log_recording`] |
+//! | `{prefix}/power/joint/p{i}_W` | electrical power per motor | [`Viz::log_recording`] |
+//! | `{prefix}/power/total/{simulated,grid,measured,predicted}_W` | total power, one plot | [`Viz::log_recording`], [`Viz::log_measured`], [`Viz::log_power_prediction`] |
+//! | `{prefix}/energy/{total,grid}_J` | cumulative energy | [`Viz::log_recording`] |
+//! | `{prefix}/payload/mass_kg` | payload at the flange | [`Viz::log_recording`] |
+//! | `{prefix}/measured/q/q{i}_rad`, `measured/power/p{i}_W` | logged measurements | [`Viz::log_measured`] |
+//! | `events` | text log (payload pick/release, ...) | [`Viz::log_events`] |
+//!
+//! Mesh shapes are not loaded: each is drawn as a labelled point at its origin.
+
+mod blueprint;
+mod recording;
+mod results;
+mod robot;
+mod sink;
+
+use std::fmt::Display;
+use std::time::Duration;
+
+pub use sink::Sink;
+
+use crate::error::{Error, Result};
+
+/// Name of the duration timeline every time series is logged on (values in s).
+pub const TIMELINE: &str = "sim_time";
+
+/// Default display rate for [`Viz::log_recording`], Hz.
+pub const DEFAULT_DISPLAY_HZ: f64 = 50.0;
+
+/// Entity of the event text log ([`Viz::log_events`]).
+pub const EVENTS_ENTITY: &str = "events";
+
+/// Longest time [`Viz::flush`] waits for the sinks to take the data, s.
+const FLUSH_TIMEOUT_S: u64 = 60;
+
+/// A Rerun recording stream with powertwin's entity layout (see the [module docs](self)).
+#[derive(Debug)]
+pub struct Viz {
+    rec: rerun::RecordingStream,
+}
+
+impl Viz {
+    /// Open a recording for application `app_id` (the name the viewer groups recordings by)
+    /// that writes to every sink of `sinks` (at least one; e.g. spawn a viewer and save a file).
+    ///
+    /// Nothing listens on the network: [`Sink::Spawn`] starts a viewer (which listens on
+    /// localhost) and [`Sink::Connect`] connects out to one. Fails with [`Error::Viz`] when a
+    /// viewer cannot be started (the message says how to install one), a URL is not a Rerun
+    /// proxy URL, or a file cannot be created.
+    pub fn new(app_id: &str, sinks: &[Sink]) -> Result<Viz> {
+        let app = rerun::ApplicationId::try_new(app_id).map_err(|e| {
+            Error::InvalidInput(format!("'{app_id}' is not a Rerun application id: {e}"))
+        })?;
+        if sinks.is_empty() {
+            return Err(Error::InvalidInput(
+                "no Rerun sink given (spawn, connect or save)".into(),
+            ));
+        }
+        let log_sinks = sinks
+            .iter()
+            .map(Sink::open)
+            .collect::<Result<Vec<Box<dyn rerun::sink::LogSink>>>>()?;
+        let rec = rerun::RecordingStreamBuilder::new(app)
+            .set_sinks(log_sinks)
+            .map_err(|e| viz_err("cannot open the recording", e))?;
+        Ok(Viz { rec })
+    }
+
+    /// Wait until every sink has taken what was logged (at most 60 s). Dropping a [`Viz`]
+    /// also flushes; call this to see errors.
+    pub fn flush(&self) -> Result<()> {
+        self.rec
+            .flush_with_timeout(Duration::from_secs(FLUSH_TIMEOUT_S))
+            .map_err(|e| viz_err("flushing the recording failed", e))
+    }
+
+    /// A scalar series at `path` as one column against `index`, named after the path's last
+    /// part (the name shown in the plot legend).
+    fn send_scalars(&self, path: &str, index: rerun::TimeColumn, values: &[f64]) -> Result<()> {
+        let ctx = format!("logging {path} failed");
+        let name = path.rsplit('/').next().unwrap_or(path);
+        self.rec
+            .log_static(path, &rerun::SeriesLines::new().with_names([name]))
+            .map_err(|e| viz_err(&ctx, e))?;
+        let columns = rerun::Scalars::new(values.iter().copied())
+            .columns_of_unit_batches()
+            .map_err(|e| viz_err(&ctx, e))?;
+        self.rec
+            .send_columns(path, [index], columns)
+            .map_err(|e| viz_err(&ctx, e))
+    }
+}
+
+/// Entity path `prefix/rest`; an empty prefix (or one of slashes only) gives `rest`.
+fn entity(prefix: &str, rest: &str) -> String {
+    let p = prefix.trim_matches('/');
+    if p.is_empty() {
+        rest.to_owned()
+    } else {
+        format!("{p}/{rest}")
+    }
+}
+
+/// An [`Error::Viz`] with context.
+fn viz_err(what: &str, e: impl Display) -> Error {
+    Error::Viz(format!("{what}: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::entity;
+
+    #[test]
+    fn entity_paths_join_prefixes() {
+        assert_eq!(entity("", "robot"), "robot");
+        assert_eq!(entity("/", "robot"), "robot");
+        assert_eq!(entity("run", "robot"), "run/robot");
+        assert_eq!(entity("/sweep/v50/", "power"), "sweep/v50/power");
+    }
+}

@@ -1,0 +1,240 @@
+//! Twin runs as time series: the simulated truth ([`Recording`]), the logged measurements
+//! ([`Measured`]) and a predicted total power, on the `sim_time` timeline.
+
+use nalgebra::Isometry3;
+use rerun::{LineStrips3D, TimeColumn};
+
+use super::{TIMELINE, Viz, entity, viz_err};
+use crate::error::{Error, Result, ensure_finite};
+use crate::kinematics::fk::{flange_pose, link_poses};
+use crate::model::Robot;
+use crate::twin::record::{Measured, Recording};
+
+/// Radius of the flange path line, m.
+const PATH_RADIUS_M: f32 = 0.002;
+
+impl Viz {
+    /// Log a twin run under `prefix`, decimated to `display_hz` (Hz, e.g.
+    /// [`super::DEFAULT_DISPLAY_HZ`]; every `round(1 / (dt display_hz))`-th row from the
+    /// first): the robot's shapes and moving links (forward kinematics of `rec.q`), the
+    /// flange path, `q`, `dq`, `tau` per joint, electrical power per motor, total and grid
+    /// power, cumulative total and grid energy (J, integrated at the full rate up to each
+    /// displayed row) and the payload mass.
+    ///
+    /// Fails with [`Error::InvalidInput`] when the recording is empty, its series do not
+    /// match the robot's joint count or its own length, or `display_hz` or `rec.dt` is not
+    /// positive and finite.
+    pub fn log_recording(
+        &self,
+        robot: &Robot,
+        rec: &Recording,
+        prefix: &str,
+        display_hz: f64,
+    ) -> Result<()> {
+        check_recording(robot, rec)?;
+        let rows = decimated_rows(rec.len(), rec.dt, display_hz)?;
+        let t: Vec<f64> = rows.iter().map(|&k| rec.t[k]).collect();
+
+        self.log_geometry(robot, prefix)?;
+        let n = robot.dof();
+        let mut q = vec![0.0; n];
+        let mut frame = vec![Isometry3::identity(); n];
+        let mut links = vec![Vec::with_capacity(rows.len()); n];
+        let mut flange = Vec::with_capacity(rows.len());
+        for &k in &rows {
+            for (qi, series) in q.iter_mut().zip(&rec.q) {
+                *qi = series[k];
+            }
+            link_poses(robot, &q, &mut frame);
+            for (l, p) in links.iter_mut().zip(&frame) {
+                l.push(*p);
+            }
+            flange.push(super::robot::translation(&flange_pose(robot, &q)));
+        }
+        self.log_link_poses(prefix, &t, &links)?;
+        let path = entity(prefix, "robot/flange_path");
+        self.rec
+            .log_static(
+                path.as_str(),
+                &LineStrips3D::new([flange]).with_radii([PATH_RADIUS_M]),
+            )
+            .map_err(|e| viz_err(&format!("logging {path} failed"), e))?;
+
+        let pick = |series: &[f64]| rows.iter().map(|&k| series[k]).collect::<Vec<f64>>();
+        for i in 0..n {
+            let j = i + 1;
+            let per_joint = [
+                (format!("joints/q/q{j}_rad"), &rec.q[i]),
+                (format!("joints/dq/dq{j}_rad_s"), &rec.dq[i]),
+                (format!("joints/tau/tau{j}_Nm"), &rec.tau[i]),
+                (format!("power/joint/p{j}_W"), &rec.p_elec[i]),
+            ];
+            for (name, series) in per_joint {
+                self.log_scalars(&entity(prefix, &name), &t, &pick(series))?;
+            }
+        }
+        let energy = |p: &[f64]| {
+            let mut e = 0.0;
+            let cumulative: Vec<f64> = p
+                .iter()
+                .map(|pk| {
+                    let before = e;
+                    e += pk * rec.dt;
+                    before
+                })
+                .collect();
+            pick(&cumulative)
+        };
+        let totals = [
+            ("power/total/simulated_W", pick(&rec.p_total)),
+            ("power/total/grid_W", pick(&rec.p_grid)),
+            ("energy/total_J", energy(&rec.p_total)),
+            ("energy/grid_J", energy(&rec.p_grid)),
+            ("payload/mass_kg", pick(&rec.payload_mass)),
+        ];
+        for (name, values) in totals {
+            self.log_scalars(&entity(prefix, name), &t, &values)?;
+        }
+        Ok(())
+    }
+
+    /// Log measurements under `prefix` at their own rate: encoder positions
+    /// (`measured/q/q{i}_rad`), per-motor power (`measured/power/p{i}_W`) and the meter's total
+    /// power next to the simulated one (`power/total/measured_W`).
+    ///
+    /// Fails with [`Error::InvalidInput`] when a series does not have one value per sample
+    /// time or the times are not finite.
+    pub fn log_measured(&self, m: &Measured, prefix: &str) -> Result<()> {
+        ensure_finite(&m.t, "measured t")?;
+        let len = m.t.len();
+        let bad =
+            m.q.iter()
+                .chain(&m.p_joint)
+                .chain([&m.p_total])
+                .any(|s| s.len() != len);
+        if bad || m.q.len() != m.p_joint.len() {
+            return Err(Error::InvalidInput(format!(
+                "measured series must all have {len} samples and one per joint ({} q, {} power)",
+                m.q.len(),
+                m.p_joint.len()
+            )));
+        }
+        for (j, (q, p)) in (1..).zip(m.q.iter().zip(&m.p_joint)) {
+            self.log_scalars(&entity(prefix, &format!("measured/q/q{j}_rad")), &m.t, q)?;
+            self.log_scalars(&entity(prefix, &format!("measured/power/p{j}_W")), &m.t, p)?;
+        }
+        self.log_scalars(&entity(prefix, "power/total/measured_W"), &m.t, &m.p_total)
+    }
+
+    /// Log a predicted total power `p_total_pred` (W) at times `t` (s) under `prefix`, in the
+    /// plot of the simulated total power (`power/total/predicted_W`), at the given rate.
+    ///
+    /// Fails with [`Error::InvalidInput`] when the lengths differ or a time is not finite.
+    pub fn log_power_prediction(
+        &self,
+        t: &[f64],
+        p_total_pred: &[f64],
+        prefix: &str,
+    ) -> Result<()> {
+        ensure_finite(t, "prediction t")?;
+        if t.len() != p_total_pred.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} prediction times but {} powers",
+                t.len(),
+                p_total_pred.len()
+            )));
+        }
+        self.log_scalars(&entity(prefix, "power/total/predicted_W"), t, p_total_pred)
+    }
+
+    /// One scalar series on `sim_time` (times in s) as a column.
+    fn log_scalars(&self, path: &str, t_s: &[f64], values: &[f64]) -> Result<()> {
+        let time = TimeColumn::new_duration_secs(TIMELINE, t_s.iter().copied());
+        self.send_scalars(path, time, values)
+    }
+}
+
+/// Rows kept when showing `len` rows `dt` s apart at `display_hz`: every `s`-th from row 0,
+/// `s = max(1, round(1 / (dt display_hz)))`.
+pub(super) fn decimated_rows(len: usize, dt: f64, display_hz: f64) -> Result<Vec<usize>> {
+    if !(display_hz.is_finite() && display_hz > 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "display rate {display_hz} Hz must be positive and finite"
+        )));
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "recording step dt = {dt} s must be positive and finite"
+        )));
+    }
+    let stride = (1.0 / (dt * display_hz)).round().max(1.0);
+    let stride = if stride < len as f64 {
+        stride as usize
+    } else {
+        len.max(1)
+    };
+    Ok((0..len).step_by(stride).collect())
+}
+
+/// A recording's series fit the robot and each other.
+fn check_recording(robot: &Robot, rec: &Recording) -> Result<()> {
+    let (n, len) = (robot.dof(), rec.len());
+    if len == 0 {
+        return Err(Error::InvalidInput("the recording is empty".into()));
+    }
+    ensure_finite(&rec.t, "recording t")?;
+    let per_joint = [
+        ("q", &rec.q),
+        ("dq", &rec.dq),
+        ("tau", &rec.tau),
+        ("p_elec", &rec.p_elec),
+    ];
+    for (what, series) in per_joint {
+        if series.len() != n {
+            return Err(Error::InvalidInput(format!(
+                "recording {what} has {} joints, the robot {n}",
+                series.len()
+            )));
+        }
+        if let Some(i) = series.iter().position(|s| s.len() != len) {
+            return Err(Error::InvalidInput(format!(
+                "recording {what}{} has {} rows, t has {len}",
+                i + 1,
+                series[i].len()
+            )));
+        }
+    }
+    let totals = [
+        ("p_total", &rec.p_total),
+        ("p_grid", &rec.p_grid),
+        ("payload_mass", &rec.payload_mass),
+    ];
+    for (what, series) in totals {
+        if series.len() != len {
+            return Err(Error::InvalidInput(format!(
+                "recording {what} has {} rows, t has {len}",
+                series.len()
+            )));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decimated_rows;
+
+    #[test]
+    fn decimation_keeps_every_stride_th_row_from_the_first() {
+        // 1 kHz shown at 50 Hz: every 20th row.
+        let rows = decimated_rows(2001, 1e-3, 50.0).unwrap();
+        assert_eq!(rows.len(), 101);
+        assert_eq!(rows[1], 20);
+        // Display faster than the data: every row.
+        assert_eq!(decimated_rows(7, 0.1, 50.0).unwrap().len(), 7);
+        // Display slower than the whole run: the first row only.
+        assert_eq!(decimated_rows(10, 1e-3, 0.01).unwrap(), vec![0]);
+        assert!(decimated_rows(10, 1e-3, 0.0).is_err());
+        assert!(decimated_rows(10, f64::NAN, 50.0).is_err());
+    }
+}
