@@ -18,10 +18,10 @@ pub struct ReproduceArgs {
 pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     eprintln!(
         "powertwin reproduce is not built yet (nothing written to {}).\n\
-         Available now: the model, kinematics, rigid-body dynamics and base parameters\n\
-         (`powertwin model`, `powertwin dynamics`, `powertwin base-params`).\n\
-         Missing: the Rapier twin that generates power datasets, excitation design and\n\
-         identification from power, and the pick-and-place sweep and report.",
+         Available now: model, dynamics, base-params, excite, simulate, dataset, identify,\n\
+         predict.\n\
+         Missing: the end-to-end pipeline (Table 3/4 reproduction, the pick-and-place\n\
+         speed/load sweep, report and plots).",
         args.out.display()
     );
     Ok(ExitCode::from(2))
