@@ -34,6 +34,7 @@ use crate::dynamics::base_params::{BaseParams, Relation};
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::model::drive::Drive;
+use crate::model::inertia::tensor_elements;
 use crate::model::payload::Payload;
 use crate::twin::TwinConfig;
 use crate::twin::record::{Measured, Recording};
@@ -252,14 +253,7 @@ impl PayloadEvent {
             name: payload.name.clone(),
             mass_kg: b.mass,
             com_m: [b.com.x, b.com.y, b.com.z],
-            inertia_kgm2: [
-                i[(0, 0)],
-                i[(1, 1)],
-                i[(2, 2)],
-                i[(0, 1)],
-                i[(0, 2)],
-                i[(1, 2)],
-            ],
+            inertia_kgm2: tensor_elements(i),
             tcp_m: payload.tcp.map(|p| [p.x, p.y, p.z]),
         }
     }

@@ -87,20 +87,9 @@ impl RigidInertia {
 
     /// Standard parameters `[XX YY ZZ XY XZ YZ MX MY MZ M]` about the frame origin.
     pub fn standard_params(&self) -> [f64; 10] {
-        let i = self.inertia_origin();
+        let [xx, yy, zz, xy, xz, yz] = tensor_elements(&self.inertia_origin());
         let mc = self.com * self.mass;
-        [
-            i[(0, 0)],
-            i[(1, 1)],
-            i[(2, 2)],
-            i[(0, 1)],
-            i[(0, 2)],
-            i[(1, 2)],
-            mc.x,
-            mc.y,
-            mc.z,
-            self.mass,
-        ]
+        [xx, yy, zz, xy, xz, yz, mc.x, mc.y, mc.z, self.mass]
     }
 
     /// Inverse of [`RigidInertia::standard_params`]; a zero mass gives a zero COM.
@@ -161,6 +150,19 @@ impl RigidInertia {
         }
         Ok(())
     }
+}
+
+/// The six independent elements `[xx yy zz xy xz yz]` of a symmetric inertia tensor
+/// (kg m^2), the order of URDF and of the standard parameters.
+pub fn tensor_elements(i: &Matrix3<f64>) -> [f64; 6] {
+    [
+        i[(0, 0)],
+        i[(1, 1)],
+        i[(2, 2)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 2)],
+    ]
 }
 
 /// `m (|c|^2 I - c c^T)`: inertia of a point mass at `c` about the origin.
