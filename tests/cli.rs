@@ -1,25 +1,8 @@
 //! The `powertwin` binary as a user runs it: outputs, JSON fields, and clear errors.
 
-use std::process::Command;
+mod common;
 
-fn powertwin(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_powertwin"))
-        .args(args)
-        .current_dir(std::env::temp_dir())
-        .output()
-        .expect("binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("powertwin-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
+use common::{run as powertwin, tmp};
 
 #[test]
 fn model_works_from_any_directory_and_prints_table_1() {

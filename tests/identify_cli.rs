@@ -1,25 +1,10 @@
 //! `excite` -> `simulate` -> `identify` -> `predict` as a user runs them.
 
+mod common;
+
+use common::{run as powertwin, tmp};
+
 use std::path::PathBuf;
-use std::process::Command;
-
-fn powertwin(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_powertwin"))
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("powertwin-id-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 #[test]
 fn identified_model_predicts_the_twins_energy() {

@@ -1,27 +1,13 @@
 //! `powertwin simulate` and `powertwin dataset` as a user runs them: datasets on disk,
 //! byte-identical reruns, shard union, and clear errors for bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+
+use common::{run as powertwin, tmp};
+
+use std::path::Path;
 
 use powertwin::dataset::{Dataset, Format};
-
-fn powertwin(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_powertwin"))
-        .args(args)
-        .output()
-        .expect("binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("powertwin-sim-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 /// A 2 s trajectory CSV: joint i moves `a_i (1 - cos(pi t))`.
 fn trajectory(path: &Path, scale: f64, nan_row: Option<usize>) {
@@ -66,7 +52,7 @@ fn simulate_writes_a_dataset_and_reruns_are_byte_identical() {
     trajectory(&traj, 1.0, None);
     let (a, b) = (tmp("run_a"), tmp("run_b"));
     for dir in [&a, &b] {
-        let (code, err) = powertwin(&[
+        let (code, _, err) = powertwin(&[
             "simulate",
             "--trajectory",
             traj.to_str().unwrap(),
@@ -89,7 +75,7 @@ fn simulate_writes_a_dataset_and_reruns_are_byte_identical() {
     assert_eq!(Format::detect(&a).unwrap(), Format::Parquet);
     // CSV works too and holds the same numbers.
     let c = tmp("run_csv");
-    let (code, err) = powertwin(&[
+    let (code, _, err) = powertwin(&[
         "simulate",
         "--trajectory",
         traj.to_str().unwrap(),
@@ -111,13 +97,20 @@ fn bad_simulation_inputs_are_clear_errors() {
     let traj = tmp("fast.csv");
     trajectory(&traj, 8.0, None);
     let out = tmp("never");
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    // `simulate` of `traj` into `out` with extra arguments: exit code and stderr.
+    let simulate = |extra: &[&str]| {
+        let mut args = vec![
+            "simulate",
+            "--trajectory",
+            traj.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (code, _, err) = powertwin(&args);
+        (code, err)
+    };
+    let (code, err) = simulate(&[]);
     assert_eq!(code, 1);
     assert!(
         err.contains("joint limit violated") && err.contains("at t = "),
@@ -125,23 +118,11 @@ fn bad_simulation_inputs_are_clear_errors() {
     );
     assert!(!out.exists());
     trajectory(&traj, 1.0, Some(7));
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, err) = simulate(&[]);
     assert_eq!(code, 1);
     assert!(err.contains("row 9") && err.contains("q3"), "{err}");
     std::fs::write(&traj, "t,q1,q2\n0,0,0\n1,0,0\n").unwrap();
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, err) = simulate(&[]);
     assert_eq!(code, 1);
     assert!(err.contains("missing column 'q3_rad' or 'q3'"), "{err}");
     trajectory(&traj, 1.0, None);
@@ -149,37 +130,13 @@ fn bad_simulation_inputs_are_clear_errors() {
     let text =
         powertwin::model::builtin::IRB1200_DRIVE.replacen("\nefficiency =", "\nefficency =", 1);
     std::fs::write(&drive, text).unwrap();
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--drive",
-        drive.to_str().unwrap(),
-    ]);
+    let (code, err) = simulate(&["--drive", drive.to_str().unwrap()]);
     assert_eq!(code, 1);
     assert!(err.contains("unknown field `efficency`"), "{err}");
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--payload",
-        "anvil",
-    ]);
+    let (code, err) = simulate(&["--payload", "anvil"]);
     assert_eq!(code, 1);
     assert!(err.contains("anvil") && err.contains("tool"), "{err}");
-    let (code, err) = powertwin(&[
-        "simulate",
-        "--trajectory",
-        traj.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--dt",
-        "0.0015",
-    ]);
+    let (code, err) = simulate(&["--dt", "0.0015"]);
     assert_eq!(code, 1);
     assert!(err.contains("whole number of physics steps"), "{err}");
     assert!(!out.exists());
@@ -189,7 +146,7 @@ fn bad_simulation_inputs_are_clear_errors() {
 fn shards_union_to_the_unsharded_set() {
     let (all, a, b) = (tmp("all"), tmp("shard0"), tmp("shard1"));
     for (dir, shard) in [(&all, "0/1"), (&a, "0/2"), (&b, "1/2")] {
-        let (code, err) = powertwin(&[
+        let (code, _, err) = powertwin(&[
             "dataset",
             "--count",
             "3",
@@ -227,7 +184,7 @@ fn shards_union_to_the_unsharded_set() {
         files(&all.join("item_000000")),
         files(&all.join("item_000001"))
     );
-    let (code, err) = powertwin(&[
+    let (code, _, err) = powertwin(&[
         "dataset",
         "--count",
         "3",
@@ -240,7 +197,7 @@ fn shards_union_to_the_unsharded_set() {
     ]);
     assert_eq!(code, 0);
     assert!(err.contains("0 items written, 3 already present"), "{err}");
-    let (code, err) = powertwin(&[
+    let (code, _, err) = powertwin(&[
         "dataset",
         "--count",
         "3",

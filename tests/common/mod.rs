@@ -49,3 +49,29 @@ pub fn drive_terms(n: usize) -> DriveTerms {
         coulomb: scaled(8.0),
     }
 }
+
+/// Run the `powertwin` binary from the temporary directory (so nothing depends on the
+/// working directory); returns exit code, stdout and stderr.
+pub fn run(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_powertwin"))
+        .args(args)
+        .current_dir(std::env::temp_dir())
+        .output()
+        .expect("the powertwin binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A path `name` in a temporary directory private to this test binary and process.
+pub fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "powertwin-{}-{}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&dir).expect("temporary directory");
+    dir.join(name)
+}
