@@ -23,6 +23,7 @@ pub mod kinematics;
 pub mod model;
 pub mod trajectory;
 pub mod twin;
+pub mod validation;
 #[cfg(feature = "viz")]
 pub mod viz;
 

@@ -4,6 +4,7 @@
 pub mod data;
 pub mod energy;
 pub mod fourier_fit;
+pub mod last_link;
 pub mod linear;
 pub mod lsq;
 pub mod model;

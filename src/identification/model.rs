@@ -15,7 +15,9 @@ use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
+use crate::twin::PayloadEvent;
 
 /// Base-parameter power model of one robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -99,24 +101,129 @@ impl PowerModel {
     /// Predicted energy (J) of following `traj`, integrating the power at step `dt` (s) with
     /// the trapezoidal rule (paper eq. 14).
     pub fn energy(&self, robot: &Robot, traj: &dyn Trajectory, dt: f64) -> Result<f64> {
+        Ok(integrate(robot, &[(0.0, self)], traj, dt)?.motor_j)
+    }
+
+    /// The model of the same robot carrying `payload` at the flange, predicted from the
+    /// payload's known mass properties (no new data): the last link's standard inertial
+    /// parameters grow by the payload's (in the last link frame), and that change is mapped
+    /// onto the base parameters through the regrouping relations. An efficiency-scaled model
+    /// divides the change by `efficiency`, the drives' nominal efficiency (power alone cannot
+    /// separate it; the paper's eq. 12); a model in SI units ignores it.
+    ///
+    /// Errors: a non-physical combined body, an efficiency outside (0, 1], or a model whose
+    /// base columns differ from the robot's (a model for another robot or layout).
+    pub fn with_payload(
+        &self,
+        robot: &Robot,
+        payload: &Payload,
+        efficiency: f64,
+    ) -> Result<PowerModel> {
         self.check_robot(robot)?;
-        if !(dt.is_finite() && dt > 0.0) {
+        if !(efficiency > 0.0 && efficiency <= 1.0) {
             return Err(Error::InvalidInput(format!(
-                "integration step {dt} s must be positive"
+                "efficiency {efficiency} must be in (0, 1]"
             )));
         }
-        let n = robot.dof();
-        let mut ws = Workspace::new(robot);
-        let mut w = DMatrix::zeros(n, self.layout.len());
-        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
-        let h = traj.duration() / steps as f64;
-        let mut e = 0.0;
-        for k in 0..=steps {
-            traj.sample(k as f64 * h, &mut q, &mut dq, &mut ddq);
-            let p = self.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
-            e += if k == 0 || k == steps { 0.5 * p } else { p };
+        let base = BaseParams::compute(robot, self.layout, &SamplingOptions::default())?;
+        if base.independent() != self.columns.as_slice() {
+            return Err(Error::InvalidInput(
+                "the model's base parameters are not those of this robot".into(),
+            ));
         }
-        Ok(e * h)
+        let last = robot.dof() - 1;
+        let before = robot.standard_params()[last];
+        let after = attach(robot, payload)?.standard_params()[last];
+        let mut delta = vec![0.0; self.layout.len()];
+        let start = self.layout.link_start(last);
+        for (k, (a, b)) in after.iter().zip(&before).enumerate() {
+            delta[start + k] = a - b;
+        }
+        let scale = if self.efficiency_scaled {
+            1.0 / efficiency
+        } else {
+            1.0
+        };
+        let mut model = self.clone();
+        for (t, d) in model.theta.iter_mut().zip(base.base_values(&delta)?) {
+            *t += scale * d;
+        }
+        Ok(model)
     }
+
+    /// Predicted energy of following `traj` while the flange carries the payloads of
+    /// `events` (each from its time on; none before the first), each added to this model
+    /// with [`PowerModel::with_payload`]. `dt`: integration step, s.
+    pub fn energy_with_payloads(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        dt: f64,
+    ) -> Result<EnergyPrediction> {
+        let mut models = vec![(f64::NEG_INFINITY, self.clone())];
+        for e in events {
+            let model = match &e.payload {
+                Some(p) => self.with_payload(robot, p, efficiency)?,
+                None => self.clone(),
+            };
+            models.push((e.t_s, model));
+        }
+        let refs: Vec<(f64, &PowerModel)> = models.iter().map(|(t, m)| (*t, m)).collect();
+        integrate(robot, &refs, traj, dt)
+    }
+}
+
+/// Predicted energy of a motion.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EnergyPrediction {
+    /// Integral of the predicted total motor power, J (regenerated energy counts negative).
+    #[serde(rename = "motor_J")]
+    pub motor_j: f64,
+    /// Integral of the predicted grid-side power `max(P, 0)`, J (no energy fed back).
+    #[serde(rename = "grid_J")]
+    pub grid_j: f64,
+}
+
+/// Trapezoidal integral of the power of `traj` at step about `dt`, using at each time the
+/// last model of `models` (sorted `(from_s, model)`) whose start is not after it.
+fn integrate(
+    robot: &Robot,
+    models: &[(f64, &PowerModel)],
+    traj: &dyn Trajectory,
+    dt: f64,
+) -> Result<EnergyPrediction> {
+    for (_, m) in models {
+        m.check_robot(robot)?;
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "integration step {dt} s must be positive"
+        )));
+    }
+    let n = robot.dof();
+    let mut ws = Workspace::new(robot);
+    let mut w = DMatrix::zeros(n, models[0].1.layout.len());
+    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
+    let h = traj.duration() / steps as f64;
+    let (mut motor, mut grid) = (0.0, 0.0);
+    for k in 0..=steps {
+        let t = k as f64 * h;
+        let model = models
+            .iter()
+            .rev()
+            .find(|(from, _)| *from <= t)
+            .map_or(models[0].1, |(_, m)| *m);
+        traj.sample(t, &mut q, &mut dq, &mut ddq);
+        let p = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
+        let weight = if k == 0 || k == steps { 0.5 } else { 1.0 };
+        motor += weight * p;
+        grid += weight * p.max(0.0);
+    }
+    Ok(EnergyPrediction {
+        motor_j: motor * h,
+        grid_j: grid * h,
+    })
 }

@@ -36,6 +36,25 @@ impl States {
         self.t.is_empty()
     }
 
+    /// Append the samples of `other` (same joints): pools the data of several runs for
+    /// estimators that use states one sample at a time (times are then not increasing).
+    pub fn append(&mut self, other: &States) -> Result<()> {
+        if other.q.len() != self.q.len() {
+            return Err(Error::InvalidInput(format!(
+                "cannot pool states of {} and {} joints",
+                self.q.len(),
+                other.q.len()
+            )));
+        }
+        self.t.extend_from_slice(&other.t);
+        for i in 0..self.q.len() {
+            self.q[i].extend_from_slice(&other.q[i]);
+            self.dq[i].extend_from_slice(&other.dq[i]);
+            self.ddq[i].extend_from_slice(&other.ddq[i]);
+        }
+        Ok(())
+    }
+
     /// Copy the state of sample `m` into the three slices.
     pub fn at(&self, m: usize, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
         for i in 0..self.q.len() {

@@ -235,6 +235,12 @@ impl Drive {
         &self.joints
     }
 
+    /// The drives' nominal efficiency: the mean of the joints' efficiencies. What the
+    /// paper's single `1/eta` scale of the power model stands for.
+    pub fn nominal_efficiency(&self) -> f64 {
+        self.joints.iter().map(|j| j.efficiency).sum::<f64>() / self.joints.len().max(1) as f64
+    }
+
     /// Reflected rotor inertias per joint, kg m^2 (link side).
     pub fn rotor_inertia(&self) -> Vec<f64> {
         self.joints.iter().map(|j| j.rotor_inertia).collect()

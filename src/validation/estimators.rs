@@ -1,0 +1,111 @@
+//! The estimators compared on the same data: the six steps' fitted states and total power.
+//!
+//! * `paper-steps`: the paper's step-by-step method ([`super::steps`]).
+//! * `total`: every base parameter at once from the pooled total power (linear model).
+//! * `pmsm`: the same pooled data with copper-loss terms, by Levenberg–Marquardt (only when
+//!   the twin's motors follow the PMSM model; the linear model is the right one otherwise).
+//!
+//! Each model predicts the energy of every step's trajectory; the best is the one with the
+//! smallest worst-case error.
+
+use serde::Serialize;
+
+use crate::dynamics::ParamLayout;
+use crate::error::{Error, Result};
+use crate::identification::linear::{self, Observation};
+use crate::identification::lsq::Estimate;
+use crate::identification::model::PowerModel;
+use crate::identification::pmsm;
+use crate::twin::motor::MotorModel;
+use crate::validation::params::{Consistency, ParamRow, consistency, table};
+use crate::validation::rig::Rig;
+use crate::validation::steps::Steps;
+
+/// Random poses of the consistency check.
+const CONSISTENCY_POSES: usize = 200;
+
+/// One estimator's outcome.
+#[derive(Debug, Clone, Serialize)]
+pub struct EstimatorResult {
+    /// Method name (`paper-steps`, `total`, `pmsm`).
+    pub method: String,
+    /// The identified model.
+    pub model: PowerModel,
+    /// Least-squares statistics (one per step for `paper-steps`).
+    pub estimates: Vec<Estimate>,
+    /// Predicted energy of each step's trajectory, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: Vec<f64>,
+    /// Its error against the simulated energy, %.
+    pub error_pct: Vec<f64>,
+    /// Largest absolute error over the steps, %.
+    pub max_abs_error_pct: f64,
+    /// Identified against true base parameters (Table 2).
+    pub parameters: Vec<ParamRow>,
+    /// Physical-consistency check.
+    pub consistency: Consistency,
+}
+
+/// Identify with every estimator that applies to `rig`'s motor model and evaluate each.
+/// The paper-steps model is taken from `steps`.
+pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
+    let robot = rig.robot;
+    let mut pooled = steps
+        .data
+        .first()
+        .ok_or_else(|| Error::InvalidInput("no step data to identify from".into()))?
+        .states
+        .clone();
+    let mut power = steps.data[0].p_total.clone();
+    for d in &steps.data[1..] {
+        pooled.append(&d.states)?;
+        power.extend_from_slice(&d.p_total);
+    }
+    let scaled = rig.twin.motor == MotorModel::Efficiency;
+    let layout = ParamLayout::new(robot, true, true);
+    let mut fits = vec![(
+        "paper-steps",
+        steps.model.clone(),
+        steps.rows.iter().map(|r| r.estimate.clone()).collect(),
+    )];
+    let mut total = PowerModel::new(robot, layout, scaled)?;
+    let est = linear::identify(robot, &mut total, &pooled, Observation::TotalPower, &power)?;
+    fits.push(("total", total, vec![est]));
+    if rig.twin.motor == MotorModel::Pmsm {
+        let mut model = PowerModel::new(robot, layout, false)?;
+        let est = pmsm::identify(robot, &mut model, &pooled, &power)?;
+        fits.push(("pmsm", model, vec![est]));
+    }
+    let efficiency = rig.drive.nominal_efficiency();
+    fits.into_iter()
+        .map(|(method, model, estimates)| {
+            let mut predicted_j = Vec::with_capacity(steps.rows.len());
+            let mut error_pct = Vec::with_capacity(steps.rows.len());
+            for (row, traj) in steps.rows.iter().zip(&steps.trajectories) {
+                let e = model.energy(robot, traj, rig.twin.physics.dt)?;
+                predicted_j.push(e);
+                error_pct.push(100.0 * (e - row.simulated_j) / row.simulated_j);
+            }
+            let refs: Vec<&Estimate> = estimates.iter().collect();
+            let parameters = table(robot, rig.drive, &model, &refs)?;
+            let consistency = consistency(robot, &model, efficiency, CONSISTENCY_POSES, 1)?;
+            Ok(EstimatorResult {
+                method: method.to_string(),
+                max_abs_error_pct: error_pct.iter().fold(0.0, |m: f64, e| m.max(e.abs())),
+                model,
+                estimates,
+                predicted_j,
+                error_pct,
+                parameters,
+                consistency,
+            })
+        })
+        .collect()
+}
+
+/// The result with the smallest worst-case energy error.
+pub fn best(results: &[EstimatorResult]) -> Option<&EstimatorResult> {
+    results
+        .iter()
+        .min_by(|a, b| a.max_abs_error_pct.total_cmp(&b.max_abs_error_pct))
+}

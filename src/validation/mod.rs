@@ -1,0 +1,17 @@
+//! The paper's experiments reproduced on the twin, with ground truth the paper never had.
+//!
+//! * [`steps`]: excitation and the six-step identification from total power (Table 3).
+//! * [`payloads`]: tool and load cases on one trajectory (Table 4), by re-identifying the last
+//!   link and by adding the known payload.
+//! * [`estimators`]: the paper's steps against all-at-once estimators on the same data.
+//! * [`params`]: identified against true base parameters (Table 2) and a physical-consistency
+//!   check of an identified model.
+//!
+//! Every experiment runs the twin through a [`rig::Rig`] and reports progress through
+//! [`rig::Progress`].
+
+pub mod estimators;
+pub mod params;
+pub mod payloads;
+pub mod rig;
+pub mod steps;

@@ -1,0 +1,71 @@
+//! The twin set-up an experiment runs on, and progress reporting.
+
+use crate::dataset::Dataset;
+use crate::dataset::generate::{RunSpec, simulate};
+use crate::dataset::meta::Urdf;
+use crate::error::Result;
+use crate::model::Robot;
+use crate::model::drive::Drive;
+use crate::trajectory::Trajectory;
+use crate::twin::sensor::SensorSettings;
+use crate::twin::{PayloadEvent, TwinConfig};
+
+/// Robot, true drives, twin and logger settings of an experiment.
+#[derive(Debug, Clone)]
+pub struct Rig<'a> {
+    /// The simulated robot (no payload).
+    pub robot: &'a Robot,
+    /// Where the robot came from (recorded in the datasets).
+    pub urdf: Urdf,
+    /// True drive parameters.
+    pub drive: &'a Drive,
+    /// Physics, controller and motor model.
+    pub twin: TwinConfig,
+    /// Logger; run `k` of an experiment uses noise seed `sensor.seed + k`.
+    pub sensor: SensorSettings,
+}
+
+impl Rig<'_> {
+    /// Run the twin along `traj` with the payload timeline `events` and log it as a dataset.
+    /// `run` numbers the run within the experiment (noise seed offset); `description` goes
+    /// into `meta.json`.
+    pub fn run(
+        &self,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        run: u64,
+        description: serde_json::Value,
+    ) -> Result<Dataset> {
+        let spec = RunSpec {
+            robot: self.robot,
+            urdf: self.urdf.clone(),
+            drive: self.drive,
+            events,
+            twin: self.twin.clone(),
+            sensor: SensorSettings {
+                seed: self.sensor.seed.wrapping_add(run),
+                ..self.sensor
+            },
+            trajectory: traj,
+            trajectory_description: description,
+            trajectory_seed: None,
+        };
+        Ok(simulate(&spec)?.0)
+    }
+}
+
+/// Receives progress of a long experiment (a progress bar in the CLI).
+pub trait Progress: Sync {
+    /// A stage of `items` units of work begins.
+    fn stage(&self, name: &str, items: usize);
+    /// One unit of the current stage is done.
+    fn advance(&self);
+}
+
+/// Progress that goes nowhere.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn stage(&self, _: &str, _: usize) {}
+    fn advance(&self) {}
+}
