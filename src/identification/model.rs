@@ -101,7 +101,7 @@ impl PowerModel {
     /// Predicted energy (J) of following `traj`, integrating the power at step `dt` (s) with
     /// the trapezoidal rule (paper eq. 14).
     pub fn energy(&self, robot: &Robot, traj: &dyn Trajectory, dt: f64) -> Result<f64> {
-        Ok(integrate(robot, &[(0.0, self)], traj, dt)?.motor_j)
+        Ok(self.energy_with_payloads(robot, traj, &[], 1.0, dt)?.motor_j)
     }
 
     /// The model of the same robot carrying `payload` at the flange, predicted from the
@@ -162,6 +162,38 @@ impl PowerModel {
         efficiency: f64,
         dt: f64,
     ) -> Result<EnergyPrediction> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "integration step {dt} s must be positive"
+            )));
+        }
+        let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
+        let h = traj.duration() / steps as f64;
+        let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
+        let p = self.power_with_payloads(robot, traj, events, efficiency, &t)?;
+        let (mut motor, mut grid) = (0.0, 0.0);
+        for (k, p) in p.iter().enumerate() {
+            let weight = if k == 0 || k == steps { 0.5 } else { 1.0 };
+            motor += weight * p;
+            grid += weight * p.max(0.0);
+        }
+        Ok(EnergyPrediction {
+            motor_j: motor * h,
+            grid_j: grid * h,
+        })
+    }
+
+    /// Predicted total motor power (W) along `traj` at the times `t` (s, within the
+    /// trajectory), with the payloads of `events` as in [`PowerModel::energy_with_payloads`].
+    pub fn power_with_payloads(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        t: &[f64],
+    ) -> Result<Vec<f64>> {
+        self.check_robot(robot)?;
         let mut models = vec![(f64::NEG_INFINITY, self.clone())];
         for e in events {
             let model = match &e.payload {
@@ -170,8 +202,22 @@ impl PowerModel {
             };
             models.push((e.t_s, model));
         }
-        let refs: Vec<(f64, &PowerModel)> = models.iter().map(|(t, m)| (*t, m)).collect();
-        integrate(robot, &refs, traj, dt)
+        let n = robot.dof();
+        let mut ws = Workspace::new(robot);
+        let mut w = DMatrix::zeros(n, self.layout.len());
+        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        Ok(t
+            .iter()
+            .map(|&t| {
+                let model = models
+                    .iter()
+                    .rev()
+                    .find(|(from, _)| *from <= t)
+                    .map_or(self, |(_, m)| m);
+                traj.sample(t, &mut q, &mut dq, &mut ddq);
+                model.power(robot, &mut ws, &mut w, &q, &dq, &ddq)
+            })
+            .collect())
     }
 }
 
@@ -184,46 +230,4 @@ pub struct EnergyPrediction {
     /// Integral of the predicted grid-side power `max(P, 0)`, J (no energy fed back).
     #[serde(rename = "grid_J")]
     pub grid_j: f64,
-}
-
-/// Trapezoidal integral of the power of `traj` at step about `dt`, using at each time the
-/// last model of `models` (sorted `(from_s, model)`) whose start is not after it.
-fn integrate(
-    robot: &Robot,
-    models: &[(f64, &PowerModel)],
-    traj: &dyn Trajectory,
-    dt: f64,
-) -> Result<EnergyPrediction> {
-    for (_, m) in models {
-        m.check_robot(robot)?;
-    }
-    if !(dt.is_finite() && dt > 0.0) {
-        return Err(Error::InvalidInput(format!(
-            "integration step {dt} s must be positive"
-        )));
-    }
-    let n = robot.dof();
-    let mut ws = Workspace::new(robot);
-    let mut w = DMatrix::zeros(n, models[0].1.layout.len());
-    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
-    let h = traj.duration() / steps as f64;
-    let (mut motor, mut grid) = (0.0, 0.0);
-    for k in 0..=steps {
-        let t = k as f64 * h;
-        let model = models
-            .iter()
-            .rev()
-            .find(|(from, _)| *from <= t)
-            .map_or(models[0].1, |(_, m)| *m);
-        traj.sample(t, &mut q, &mut dq, &mut ddq);
-        let p = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
-        let weight = if k == 0 || k == steps { 0.5 } else { 1.0 };
-        motor += weight * p;
-        grid += weight * p.max(0.0);
-    }
-    Ok(EnergyPrediction {
-        motor_j: motor * h,
-        grid_j: grid * h,
-    })
 }
