@@ -21,6 +21,7 @@ pub mod identification;
 pub mod io;
 pub mod kinematics;
 pub mod model;
+pub mod report;
 pub mod trajectory;
 pub mod twin;
 #[cfg(feature = "viz")]
