@@ -13,7 +13,7 @@ fn main() -> powertwin::Result<()> {
     std::fs::create_dir_all(&dir).map_err(|e| powertwin::Error::io(&dir, e))?;
 
     // Task energy E(v) = standby power * path / v + losses growing with v^2 (J), per payload.
-    let speeds: Vec<f64> = (1..=40).map(|i| 0.05 * i as f64).collect();
+    let speeds: Vec<f64> = (2..=40).map(|i| 0.05 * i as f64).collect();
     let energy = |v: f64, m: f64| 180.0 * 0.8 / v + (40.0 + 12.0 * m) * v * v + 60.0 + 9.0 * m;
     let mut chart = Chart::new("Task energy vs TCP speed", "TCP speed (m/s)", "Energy (J)");
     for m in [0.0, 3.5, 7.0] {

@@ -39,7 +39,7 @@ const WHITE: Rgba = [255, 255, 255, 255];
 const HALO: Rgba = [255, 255, 255, 215];
 /// Smallest and largest accepted image sides, px.
 const MIN_SIDE: u32 = 200;
-const MAX_SIDE: u32 = 8000;
+const MAX_SIDE: u32 = 4096;
 
 /// How the points of a series are drawn (ignored on a category axis, where series are bars).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -241,20 +241,12 @@ fn linear_labels(ks: &[i64], step: f64) -> Vec<String> {
         .iter()
         .map(|&k| (k as f64 * step).abs())
         .fold(0.0, f64::max);
-    let e_max = if max > 0.0 {
-        max.log10().floor() as i32
-    } else {
-        0
-    };
+    let e_max = (max.log10().floor() as i32).max(e_step);
     let sci = |v: f64| {
         let s = format!("{v:.*e}", (e_max - e_step).clamp(0, 6) as usize);
         let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
-        let m = if m.contains('.') {
-            m.trim_end_matches('0').trim_end_matches('.')
-        } else {
-            m
-        };
-        format!("{m}e{e}")
+        // The mantissa has one digit before the point, and it is not 0.
+        format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
     };
     let plain = |v: f64| format!("{v:.*}", (-e_step).max(0) as usize);
     let label = |k: i64| match k as f64 * step {
@@ -298,11 +290,8 @@ fn linear_axis(min: f64, max: f64, len: f64, min_gap: f64, extent: &dyn Fn(&str)
 /// A base-10 log axis over [min, max] (both > 0): 1-2-5 ticks over up to 2.5 decades,
 /// otherwise decades (every n-th when their labels would overlap).
 fn log_axis(min: f64, max: f64, len: f64, extent: &dyn Fn(&str) -> f64) -> Axis {
-    let (min, max) = if max > min * (1.0 + 1e-9) {
-        (min, max)
-    } else {
-        (min / 2.0, max * 2.0)
-    };
+    let widen = if max > min * (1.0 + 1e-9) { 1.0 } else { 2.0 };
+    let (min, max) = (min / widen, max * widen);
     let short = (max / min).log10() <= 2.5;
     let ms: &[f64] = if short {
         &[1.0, 2.0, 5.0, 10.0]
