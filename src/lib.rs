@@ -11,6 +11,7 @@
 //! and sensor models) -> [`dataset`] -> later stages (identification, energy, validation).
 //! `viz` (cargo feature `viz`, off by default for now: build with `--features viz`) logs the robot, runs and results to the Rerun
 //! viewer after the fact.
+//! [`report`] writes the charts of the reproduction report as SVG and PNG.
 //!
 //! Units are SI everywhere (m, rad, kg, s, N m, W, J); frames are described in [`model`].
 
@@ -21,6 +22,7 @@ pub mod identification;
 pub mod io;
 pub mod kinematics;
 pub mod model;
+pub mod report;
 pub mod trajectory;
 pub mod twin;
 pub mod validation;

@@ -1,0 +1,3 @@
+//! The report module holds the report writers (charts as SVG and PNG for `powertwin reproduce`).
+
+pub mod plot;
