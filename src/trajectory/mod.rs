@@ -4,7 +4,8 @@
 //! (rad, rad/s, rad/s^2) at any time `t` in `[0, duration]` (s). Implementations: sampled
 //! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
 //! point-to-point motions, seeded random generators for bulk datasets, and linear TCP moves
-//! ([`linear_move`], timed by [`s_curve`]).
+//! ([`linear_move`], timed by [`s_curve`]) for tasks such as the paper's pick and place
+//! ([`task`]).
 //! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
 
 pub mod excitation;
@@ -15,6 +16,7 @@ pub mod point_to_point;
 pub mod random;
 pub mod s_curve;
 pub mod sampled;
+pub mod task;
 
 /// A joint-space reference trajectory.
 pub trait Trajectory: Send + Sync {
