@@ -1,5 +1,5 @@
-//! Forward kinematics against the paper's MDH table, the Jacobian against finite
-//! differences, closed-form IK round trips (IRB 1200 and other OPW arms), IK error cases and
+//! Forward kinematics against the paper's MDH table, the Jacobian and its time derivative
+//! against finite differences, closed-form IK round trips (IRB 1200 and other OPW arms), IK error cases and
 //! damped least squares on OPW and non-OPW chains.
 
 mod common;
@@ -10,7 +10,7 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use powertwin::kinematics::dls::{self, DlsOptions};
 use powertwin::kinematics::fk::{flange_pose, link_poses, tcp_pose};
 use powertwin::kinematics::ik::{self, Opw};
-use powertwin::kinematics::jacobian::geometric;
+use powertwin::kinematics::jacobian::{bias_acceleration, geometric};
 use powertwin::model::frames::MdhRow;
 use powertwin::model::urdf::{LoadOptions, load_str};
 use powertwin::{Error, Robot};
@@ -293,6 +293,34 @@ fn jacobian_matches_finite_differences() {
                     );
                     assert!((col[r + 3] - w[r]).abs() < 1e-7, "joint {k} row {}", r + 3);
                 }
+            }
+        }
+    }
+}
+
+#[test]
+fn bias_acceleration_is_jacobian_derivative_times_dq() {
+    let tcp = tool();
+    for robot in [common::irb1200(), skewed_arm()] {
+        let mut rng = common::rng(12);
+        let h = 1e-6;
+        for _ in 0..200 {
+            let (q, dq, _) = common::random_state(&robot, &mut rng);
+            let shifted = |sign: f64| -> Vec<f64> {
+                q.iter().zip(&dq).map(|(a, b)| a + sign * h * b).collect()
+            };
+            let jdot = (geometric(&robot, &shifted(1.0), &tcp)
+                - geometric(&robot, &shifted(-1.0), &tcp))
+                / (2.0 * h);
+            let expected = jdot * nalgebra::DVector::from_column_slice(&dq);
+            let got = bias_acceleration(&robot, &q, &dq, &tcp);
+            for r in 0..6 {
+                assert!(
+                    (got[r] - expected[r]).abs() < 1e-6,
+                    "row {r}: {} vs {}",
+                    got[r],
+                    expected[r]
+                );
             }
         }
     }

@@ -5,8 +5,13 @@
 //! the TCP point (m/s per rad/s), `z_i x (p_tcp - o_i)`, rows 3..6 the angular velocity
 //! (rad/s per rad/s), `z_i`, where `z_i` and `o_i` are the axis and origin of link frame
 //! `i+1` in the base frame.
+//!
+//! [`bias_acceleration`] gives `Jdot dq`, the part of the TCP acceleration that the joint
+//! velocities produce, for mapping Cartesian accelerations to joint accelerations.
 
-use nalgebra::{Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6xX, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6,
+};
 
 use crate::kinematics::fk::rot_then_z;
 use crate::model::Robot;
@@ -49,7 +54,7 @@ pub fn geometric_into(
         out.ncols()
     );
     let mut r = Matrix3::identity();
-    let mut p = nalgebra::Vector3::zeros();
+    let mut p = Vector3::zeros();
     // First pass: axis z_i into rows 3..6, origin o_i (temporarily) into rows 0..3.
     for (i, (c, &qi)) in robot.chain().iter().zip(q).enumerate() {
         p += r * c.pos;
@@ -71,4 +76,50 @@ pub fn geometric_into(
         Translation3::from(p_tcp),
         UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rf)) * tcp.rotation,
     )
+}
+
+/// The TCP acceleration produced by the joint velocities `dq` (rad/s) alone at `q` (rad),
+/// i.e. `Jdot(q, dq) dq` for the geometric Jacobian of the module docs: rows 0..3 the
+/// acceleration of the TCP point (m/s^2), rows 3..6 the angular acceleration (rad/s^2), base
+/// frame. With it the joint accelerations that give a TCP acceleration `a` (same layout) are
+/// `J^-1 (a - Jdot dq)`. `tcp` is the TCP pose in the flange frame (m). Allocates nothing.
+///
+/// Computed by the forward recursion of link velocities and accelerations with zero joint
+/// acceleration: `w_i = w_{i-1} + z_i dq_i`, `alpha_i = alpha_{i-1} + w_{i-1} x z_i dq_i`, and
+/// every origin (then the TCP) accelerates as a point fixed in the previous link.
+///
+/// # Panics
+/// If `q` or `dq` does not have `robot.dof()` entries.
+pub fn bias_acceleration(
+    robot: &Robot,
+    q: &[f64],
+    dq: &[f64],
+    tcp: &Isometry3<f64>,
+) -> Vector6<f64> {
+    let n = robot.dof();
+    assert!(
+        q.len() == n && dq.len() == n,
+        "bias_acceleration: q has {} and dq {} values for {n} joints",
+        q.len(),
+        dq.len()
+    );
+    let mut r = Matrix3::identity();
+    let mut p = Vector3::zeros();
+    // Angular velocity and acceleration of the previous link, acceleration of its origin.
+    let (mut w, mut alpha, mut acc) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+    for ((c, &qi), &dqi) in robot.chain().iter().zip(q).zip(dq) {
+        let step = r * c.pos;
+        acc += alpha.cross(&step) + w.cross(&w.cross(&step));
+        p += step;
+        let (s, co) = qi.sin_cos();
+        r = rot_then_z(&(r * c.rot), s, co);
+        let z = r.column(2).into_owned() * dqi;
+        alpha += w.cross(&z);
+        w += z;
+    }
+    let flange = robot.flange();
+    let rf = r * flange.rotation.to_rotation_matrix().matrix();
+    let step = r * flange.translation.vector + rf * tcp.translation.vector;
+    acc += alpha.cross(&step) + w.cross(&w.cross(&step));
+    Vector6::new(acc.x, acc.y, acc.z, alpha.x, alpha.y, alpha.z)
 }

@@ -6,6 +6,8 @@
 //! - [`IRB1200_DRIVE`], [`IDEAL_DRIVE`]: drive files for it (see [`crate::model::drive`]).
 //! - [`payload`]: the tool and the three loads of Liu et al. 2018, Table 4, in the flange
 //!   frame `tool0`.
+//! - [`PICK_AND_PLACE`]: the pick-and-place scenario of the paper's Figure 12
+//!   (`scenarios/pick_and_place.toml`, see [`crate::trajectory::task`]).
 
 use crate::error::{Error, Result};
 use crate::model::payload::Payload;
@@ -19,6 +21,10 @@ pub const IRB1200_DRIVE: &str = include_str!("../../models/irb1200_7_70.drive.to
 /// Ideal drives for the IRB 1200-7/0.7 (`models/ideal.drive.toml`): no friction, no rotor
 /// inertia, efficiency 1, no losses.
 pub const IDEAL_DRIVE: &str = include_str!("../../models/ideal.drive.toml");
+
+/// The pick-and-place scenario (`scenarios/pick_and_place.toml`); its tool is the built-in
+/// `"tool"`, so it needs no other file.
+pub const PICK_AND_PLACE: &str = include_str!("../../scenarios/pick_and_place.toml");
 
 /// Names accepted by [`payload`], with their embedded files.
 const PAYLOADS: [(&str, &str); 4] = [

@@ -29,6 +29,9 @@ use crate::model::{RigidInertia, Robot};
 /// The only frame a payload file may be written in: the tool flange.
 const FLANGE_FRAME: &str = "tool0";
 
+/// Density of the steel of [`Payload::cube`], kg/m^3.
+pub const STEEL_DENSITY_KG_M3: f64 = 7850.0;
+
 /// A rigid payload (tool, load, or both) fixed to the tool flange.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Payload {
@@ -95,6 +98,27 @@ impl Payload {
     pub fn from_file(path: &Path) -> Result<Payload> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
         Payload::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// A solid steel cube ([`STEEL_DENSITY_KG_M3`]) of `mass_kg` with its centre of mass at
+    /// `com_m` (flange frame, m), edges along the flange axes, without a TCP: side
+    /// `a = (m / rho)^(1/3)`, `Ixx = Iyy = Izz = m a^2 / 6` about the COM. The loads of
+    /// `shared/reference/irb1200.md`, section 5.4. Errors ([`Error::InvalidInput`]): a mass
+    /// that is not finite and positive, a non-finite COM.
+    pub fn cube(name: &str, mass_kg: f64, com_m: Vector3<f64>) -> Result<Payload> {
+        if !(mass_kg.is_finite() && mass_kg > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "cube '{name}': mass {mass_kg} kg must be finite and positive"
+            )));
+        }
+        crate::error::ensure_finite(com_m.as_slice(), &format!("cube '{name}' com_m"))?;
+        let side = (mass_kg / STEEL_DENSITY_KG_M3).cbrt();
+        let i = mass_kg * side * side / 6.0;
+        Ok(Payload {
+            name: name.to_string(),
+            inertia: RigidInertia::new(mass_kg, com_m, [i, i, i, 0.0, 0.0, 0.0]),
+            tcp: None,
+        })
     }
 
     /// The rigid union of two payloads (both in the flange frame), e.g. tool + load. The TCP is

@@ -3,15 +3,20 @@
 //! A [`Trajectory`] gives the reference position, velocity and acceleration of every joint
 //! (rad, rad/s, rad/s^2) at any time `t` in `[0, duration]` (s). Implementations: sampled
 //! tables with smooth interpolation, finite Fourier series (paper eq. 7), rest-to-rest
-//! point-to-point motions, and seeded random generators for bulk datasets.
+//! point-to-point motions, seeded random generators for bulk datasets, and linear TCP moves
+//! ([`linear_move`], timed by [`s_curve`]) for tasks such as the paper's pick and place
+//! ([`task`]).
 //! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
 
 pub mod excitation;
 pub mod fourier;
 pub mod limits;
+pub mod linear_move;
 pub mod point_to_point;
 pub mod random;
+pub mod s_curve;
 pub mod sampled;
+pub mod task;
 
 /// A joint-space reference trajectory.
 pub trait Trajectory: Send + Sync {

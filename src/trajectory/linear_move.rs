@@ -1,0 +1,679 @@
+//! Linear TCP moves that stop at every via point (ABB `MoveL` to fine points).
+//!
+//! # Path
+//! Segment `k` (0-based) runs from via pose `k` to via pose `k + 1` (TCP poses in the base
+//! frame, m). One parameter `u` in `[0, 1]` drives both the position, interpolated linearly,
+//! `p(u) = p_k + u (p_{k+1} - p_k)`, and the orientation, interpolated by slerp: a rotation by
+//! `u theta` about the fixed base-frame axis `n` of the relative rotation `R_{k+1} R_k^T`
+//! (`theta` in `[0, pi]`).
+//!
+//! # Timing
+//! `u(t)` is a jerk-limited rest-to-rest [`SCurve`] whose bounds are the tighter of the
+//! translational ones divided by the segment length `L` (m) and the rotational ones divided by
+//! `theta` (rad): the TCP cruises at the commanded speed when the segment is long enough,
+//! unless turning the tool needs longer (like ABB's orientation speed `v_ori`). Every segment
+//! starts and ends at rest.
+//!
+//! # Joint motion
+//! At every sample the joint angles come from the closed-form inverse kinematics
+//! ([`Opw::solve_nearest`]) seeded with the previous sample, so the arm keeps its
+//! configuration along the path; the start uses the caller's seed. Joint velocities and
+//! accelerations are the exact derivatives: `dq = J^-1 [v; w]` and
+//! `ddq = J^-1 ([a; alpha] - Jdot dq)` with the geometric Jacobian `J` of the TCP and
+//! [`bias_acceleration`]. The samples (at most `sample_period_s` apart, with a sample at every
+//! via point) are joined by quintic Hermite pieces ([`Sampled`]), which reproduce the line to
+//! well below a micrometre between samples.
+//!
+//! # Joint limits
+//! Position limits are enforced by the inverse kinematics. If a segment would exceed a joint
+//! velocity limit (URDF) or an acceleration limit ([`MotionLimits::joint_accel_rad_s2`]), it
+//! is slowed down: a velocity violation lowers the segment's speed bound, an acceleration
+//! violation (or a velocity violation that lowering the speed does not cure) stretches the
+//! whole segment in time, which scales joint velocities by `1/k` and accelerations by `1/k^2`.
+//! Each slowed segment is reported in [`LinearMotion::slowed`]. A segment that would need less
+//! than [`MIN_SPEED_FRACTION`] of its planned speed is an error.
+
+use nalgebra::{Isometry3, Matrix6, Matrix6xX, Translation3, UnitQuaternion, Vector3, Vector6};
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+use crate::kinematics::ik::Opw;
+use crate::kinematics::jacobian::{bias_acceleration, geometric_into};
+use crate::model::Robot;
+
+use super::Trajectory;
+use super::limits::IRB1200_ACCEL_LIMITS;
+use super::s_curve::SCurve;
+use super::sampled::Sampled;
+
+/// A segment may be slowed until its peak TCP speed is this fraction of the unslowed one;
+/// needing less is reported as an error ([`Error::JointLimit`]).
+pub const MIN_SPEED_FRACTION: f64 = 0.01;
+
+/// Safety factor on the limits when slowing a segment (the peak between samples may be a
+/// little higher than at the samples).
+const SLOWDOWN_MARGIN: f64 = 1e-3;
+/// Slowing attempts that lower only the speed bound before stretching the segment in time.
+const SPEED_ONLY_ATTEMPTS: usize = 8;
+/// Slowing attempts in all.
+const MAX_ATTEMPTS: usize = 24;
+/// Lengths (m) and angles (rad) below this count as zero.
+const ZERO_MOTION: f64 = 1e-9;
+/// Largest deviation (rad) of a joint step from the trapezoidal integral of its velocities
+/// before the step counts as a jump of the inverse kinematics to another configuration.
+const JUMP_TOL: f64 = 1e-2;
+
+/// Cartesian and joint bounds of a linear move. Defaults: the Cartesian limits that the
+/// MoveIt Setup Assistant writes for the Pilz planner, as configured for the IRB 1200 in
+/// PickNikRobotics/abb_ros2 (`pilz_cartesian_limits.yaml`: `max_trans_acc` 2.25 m/s^2,
+/// `max_rot_vel` 1.57 rad/s; `shared/reference/irb1200.md`, section 6), plus estimates where
+/// no source gives a value (ABB publishes none).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MotionLimits {
+    /// TCP acceleration and deceleration bound, m/s^2. Default 2.25 (Pilz `max_trans_acc`).
+    pub accel_m_s2: f64,
+    /// TCP jerk bound, m/s^3. Default 20 (estimate: full acceleration in about 0.11 s).
+    pub jerk_m_s3: f64,
+    /// Tool angular speed bound, rad/s. Default 1.57 (Pilz `max_rot_vel`).
+    pub angular_speed_rad_s: f64,
+    /// Tool angular acceleration bound, rad/s^2. Default 3.5325 = 2.25 * 1.57 / 1.0
+    /// (estimate: the translational acceleration scaled by Pilz's `max_rot_vel` /
+    /// `max_trans_vel`, so rotation ramps up as fast as translation).
+    pub angular_accel_rad_s2: f64,
+    /// Tool angular jerk bound, rad/s^3. Default 31.4 = 20 * 1.57 / 1.0 (estimate, same
+    /// scaling).
+    pub angular_jerk_rad_s3: f64,
+    /// Joint acceleration bounds, rad/s^2, one per joint. Default
+    /// [`IRB1200_ACCEL_LIMITS`] (estimates for the IRB 1200; give your robot's for another
+    /// arm). Joint velocity bounds are the robot model's (URDF).
+    pub joint_accel_rad_s2: Vec<f64>,
+}
+
+impl Default for MotionLimits {
+    fn default() -> Self {
+        MotionLimits {
+            accel_m_s2: 2.25,
+            jerk_m_s3: 20.0,
+            angular_speed_rad_s: 1.57,
+            angular_accel_rad_s2: 2.25 * 1.57,
+            angular_jerk_rad_s3: 20.0 * 1.57,
+            joint_accel_rad_s2: IRB1200_ACCEL_LIMITS.to_vec(),
+        }
+    }
+}
+
+/// Options of [`plan`].
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LinearMoveOptions {
+    /// Longest time between two samples of the output, s, in `(0, 0.1]`. Default 0.002: the
+    /// quintic Hermite pieces between samples then stay within nanometres of the line.
+    pub sample_period_s: f64,
+    /// Time spent standing at every via point reached (not at the start), s (>= 0).
+    /// Default 0.
+    pub dwell_s: f64,
+    /// Cartesian and joint bounds.
+    pub limits: MotionLimits,
+}
+
+impl Default for LinearMoveOptions {
+    fn default() -> Self {
+        LinearMoveOptions {
+            sample_period_s: 0.002,
+            dwell_s: 0.0,
+            limits: MotionLimits::default(),
+        }
+    }
+}
+
+/// A via point: a TCP pose in the base frame (m) with a name for messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViaPose {
+    /// Name used in messages (may be empty).
+    pub name: String,
+    /// TCP pose in the base frame, m.
+    pub tcp: Isometry3<f64>,
+}
+
+/// Which joint limit made a segment slow down.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlowReason {
+    /// A joint velocity limit (robot model).
+    JointVelocity,
+    /// A joint acceleration limit ([`MotionLimits::joint_accel_rad_s2`]).
+    JointAcceleration,
+}
+
+/// A segment that was slowed down to respect the joint limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlowedSegment {
+    /// Segment index, 0-based: from via point `segment` to via point `segment + 1`.
+    pub segment: usize,
+    /// TCP speed bound before slowing, m/s: the commanded speed, or less when the tool's
+    /// angular speed bound governs the segment (0 for a pure reorientation).
+    pub commanded_m_s: f64,
+    /// TCP speed bound after slowing, m/s (the segment cruises at it when long enough).
+    pub used_m_s: f64,
+    /// Joint (0-based) whose limit was exceeded most at the commanded speed.
+    pub limiting_joint: usize,
+    /// Which of its limits.
+    pub reason: SlowReason,
+}
+
+/// A planned sequence of linear moves.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearMotion {
+    /// The joint trajectory (quintic Hermite through the samples).
+    pub trajectory: Sampled,
+    /// Time at which each via point is reached, s (the first is 0).
+    pub arrivals_s: Vec<f64>,
+    /// Total duration, s (the last arrival plus its dwell).
+    pub duration_s: f64,
+    /// Segments slowed down for the joint limits, in order.
+    pub slowed: Vec<SlowedSegment>,
+}
+
+impl Trajectory for LinearMotion {
+    fn dof(&self) -> usize {
+        self.trajectory.dof()
+    }
+
+    fn duration(&self) -> f64 {
+        self.trajectory.duration()
+    }
+
+    fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+        self.trajectory.sample(t, q, dq, ddq);
+    }
+}
+
+/// Plan linear TCP moves through `via` (at least 2 poses, the first being the start) at the
+/// commanded TCP speed `speed_m_s` (m/s), stopping at each via point (see the
+/// [module docs](self)). `tcp` is the TCP pose in the flange frame (m); `seed` (rad) selects
+/// the arm configuration at the start (the inverse-kinematics solution nearest to it).
+///
+/// # Errors
+/// - [`Error::InvalidInput`]: a speed that is not finite and positive, fewer than 2 via
+///   points, a seed of the wrong length, non-finite poses, bad options (non-positive or
+///   non-finite bounds, joint bounds of the wrong length, sample period outside `(0, 0.1]`,
+///   negative dwell), or all via points equal without dwell.
+/// - [`Error::Model`]: the robot is not of the OPW class (no closed-form IK).
+/// - [`Error::Unreachable`]: a via point or a pose on a segment is out of reach, or the
+///   inverse kinematics has to change configuration on a segment (a singularity on the line).
+/// - [`Error::JointLimit`]: a via point or a pose on a segment is outside the position limits
+///   in every configuration, or a segment would need less than [`MIN_SPEED_FRACTION`] of its
+///   speed to respect the joint velocity and acceleration limits.
+///
+/// Messages name the via point (1-based, with its name and position) or the segment.
+pub fn plan(
+    robot: &Robot,
+    tcp: &Isometry3<f64>,
+    seed: &[f64],
+    via: &[ViaPose],
+    speed_m_s: f64,
+    options: &LinearMoveOptions,
+) -> Result<LinearMotion> {
+    if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "TCP speed {speed_m_s} m/s must be finite and positive"
+        )));
+    }
+    if via.len() < 2 {
+        return Err(Error::InvalidInput(format!(
+            "linear moves need at least 2 via points (the start and a target), got {}",
+            via.len()
+        )));
+    }
+    robot.check_len(seed, "seed")?;
+    validate(robot, options)?;
+    let opw = Opw::from_robot(robot).ok_or_else(|| {
+        Error::Model(format!(
+            "robot '{}' is not of the OPW class; linear moves need its closed-form inverse \
+             kinematics",
+            robot.name()
+        ))
+    })?;
+    let ctx = Context::new(robot, opw, tcp, options);
+    // Every via point on its own, seeded with the previous one, for errors that name it.
+    let mut q_start = [0.0; 6];
+    let mut prev = seed.to_vec();
+    for (k, v) in via.iter().enumerate() {
+        let q = ctx
+            .opw
+            .solve_nearest(&v.tcp, tcp, &prev)
+            .map_err(|e| located(e, &describe_via(k, v)))?;
+        if k == 0 {
+            q_start = q;
+        }
+        prev = q.to_vec();
+    }
+
+    let mut out = Output::new(6);
+    out.push(0.0, &q_start, &[0.0; 6], &[0.0; 6]);
+    let mut arrivals = vec![0.0];
+    let mut slowed = Vec::new();
+    let mut t = 0.0;
+    let mut q = q_start;
+    for k in 0..via.len() - 1 {
+        let seg = Segment::new(k, &via[k], &via[k + 1]);
+        if let Some(planned) = seg.plan(&ctx, &q, speed_m_s)? {
+            for s in &planned.samples {
+                out.push(t + s.t, &s.q, &s.dq, &s.ddq);
+            }
+            t += planned.duration;
+            q = planned.samples.last().map_or(q, |s| s.q);
+            slowed.extend(planned.slowed);
+        }
+        arrivals.push(t);
+        if options.dwell_s > 0.0 {
+            t += options.dwell_s;
+            out.push(t, &q, &[0.0; 6], &[0.0; 6]);
+        }
+    }
+    if out.t.len() < 2 {
+        return Err(Error::InvalidInput(
+            "all via points coincide and there is no dwell: the motion has zero duration".into(),
+        ));
+    }
+    let trajectory = Sampled::new(out.t, out.q, Some(out.dq), Some(out.ddq))?;
+    Ok(LinearMotion {
+        trajectory,
+        arrivals_s: arrivals,
+        duration_s: t,
+        slowed,
+    })
+}
+
+/// Check the options against the robot.
+fn validate(robot: &Robot, options: &LinearMoveOptions) -> Result<()> {
+    let l = &options.limits;
+    for (name, value) in [
+        ("accel_m_s2", l.accel_m_s2),
+        ("jerk_m_s3", l.jerk_m_s3),
+        ("angular_speed_rad_s", l.angular_speed_rad_s),
+        ("angular_accel_rad_s2", l.angular_accel_rad_s2),
+        ("angular_jerk_rad_s3", l.angular_jerk_rad_s3),
+    ] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "motion limit {name} = {value} must be finite and positive"
+            )));
+        }
+    }
+    robot.check_len(&l.joint_accel_rad_s2, "joint_accel_rad_s2")?;
+    if let Some(i) = l.joint_accel_rad_s2.iter().position(|v| *v <= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "joint_accel_rad_s2[{}] = {} rad/s^2 must be positive",
+            i + 1,
+            l.joint_accel_rad_s2[i]
+        )));
+    }
+    let dt = options.sample_period_s;
+    if !(dt.is_finite() && dt > 0.0 && dt <= 0.1) {
+        return Err(Error::InvalidInput(format!(
+            "sample_period_s = {dt} s must be in (0, 0.1]"
+        )));
+    }
+    let dwell = options.dwell_s;
+    if !(dwell.is_finite() && dwell >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "dwell_s = {dwell} s must be finite and non-negative"
+        )));
+    }
+    Ok(())
+}
+
+/// "via point 4 'B' at (0.300, 0.300, 0.300) m" (1-based).
+fn describe_via(k: usize, v: &ViaPose) -> String {
+    let p = v.tcp.translation.vector;
+    let name = if v.name.is_empty() {
+        String::new()
+    } else {
+        format!(" '{}'", v.name)
+    };
+    format!(
+        "via point {}{name} at ({:.4}, {:.4}, {:.4}) m",
+        k + 1,
+        p.x,
+        p.y,
+        p.z
+    )
+}
+
+/// The same error with `place` in front of its message.
+fn located(e: Error, place: &str) -> Error {
+    match e {
+        Error::InvalidInput(m) => Error::InvalidInput(format!("{place}: {m}")),
+        Error::Unreachable(m) => Error::Unreachable(format!("{place}: {m}")),
+        Error::JointLimit(m) => Error::JointLimit(format!("{place}: {m}")),
+        other => other,
+    }
+}
+
+/// What every segment needs: the robot, its IK, the TCP and the bounds.
+struct Context<'a> {
+    robot: &'a Robot,
+    opw: Opw,
+    tcp: &'a Isometry3<f64>,
+    limits: &'a MotionLimits,
+    /// Longest time between samples, s.
+    period: f64,
+    /// Joint velocity bounds (URDF), rad/s.
+    vmax: [f64; 6],
+    /// Joint acceleration bounds, rad/s^2.
+    amax: [f64; 6],
+    /// Joint names.
+    names: Vec<&'a str>,
+}
+
+impl<'a> Context<'a> {
+    fn new(
+        robot: &'a Robot,
+        opw: Opw,
+        tcp: &'a Isometry3<f64>,
+        options: &'a LinearMoveOptions,
+    ) -> Self {
+        let joints = robot.joints();
+        Context {
+            robot,
+            opw,
+            tcp,
+            limits: &options.limits,
+            period: options.sample_period_s,
+            vmax: std::array::from_fn(|i| joints[i].limits.velocity),
+            amax: std::array::from_fn(|i| options.limits.joint_accel_rad_s2[i]),
+            names: joints.iter().map(|j| j.name.as_str()).collect(),
+        }
+    }
+}
+
+/// One straight segment between two via poses.
+struct Segment<'a> {
+    /// Index, 0-based.
+    index: usize,
+    from: &'a ViaPose,
+    to: &'a ViaPose,
+    /// Translation from start to end, m (zero below [`ZERO_MOTION`]).
+    delta: Vector3<f64>,
+    /// Length, m.
+    length: f64,
+    /// Rotation axis in the base frame (unit) times the angle, rad.
+    turn: Vector3<f64>,
+    /// Rotation angle, rad.
+    angle: f64,
+}
+
+/// One joint sample of a segment; `t` from the segment's start, s.
+#[derive(Clone, Copy)]
+struct JointSample {
+    t: f64,
+    q: [f64; 6],
+    dq: [f64; 6],
+    ddq: [f64; 6],
+}
+
+/// A timed segment: samples after its start (the last at the end), its duration and whether
+/// it was slowed.
+struct PlannedSegment {
+    samples: Vec<JointSample>,
+    duration: f64,
+    slowed: Option<SlowedSegment>,
+}
+
+/// Peak ratios of joint velocity and acceleration to their bounds, with the joints.
+struct Peaks {
+    velocity: (f64, usize),
+    acceleration: (f64, usize),
+}
+
+impl<'a> Segment<'a> {
+    fn new(index: usize, from: &'a ViaPose, to: &'a ViaPose) -> Self {
+        let mut delta = to.tcp.translation.vector - from.tcp.translation.vector;
+        let mut length = delta.norm();
+        if length < ZERO_MOTION {
+            delta = Vector3::zeros();
+            length = 0.0;
+        }
+        let rel = to.tcp.rotation * from.tcp.rotation.inverse();
+        let (turn, angle) = match rel.axis_angle() {
+            Some((axis, angle)) if angle >= ZERO_MOTION => (axis.into_inner() * angle, angle),
+            _ => (Vector3::zeros(), 0.0),
+        };
+        Segment {
+            index,
+            from,
+            to,
+            delta,
+            length,
+            turn,
+            angle,
+        }
+    }
+
+    /// "segment 3 (C -> B)" (1-based via points).
+    fn describe(&self) -> String {
+        let name = |k: usize, v: &ViaPose| {
+            if v.name.is_empty() {
+                format!("via {}", k + 1)
+            } else {
+                v.name.clone()
+            }
+        };
+        format!(
+            "segment {} ({} -> {})",
+            self.index + 1,
+            name(self.index, self.from),
+            name(self.index + 1, self.to)
+        )
+    }
+
+    /// Time the segment from joint configuration `q0` at the commanded speed, slowing it down
+    /// for the joint limits; `None` for a segment without motion.
+    fn plan(&self, ctx: &Context, q0: &[f64; 6], speed_m_s: f64) -> Result<Option<PlannedSegment>> {
+        if self.length == 0.0 && self.angle == 0.0 {
+            return Ok(None);
+        }
+        let l = ctx.limits;
+        // Bounds on u (1/s, 1/s^2, 1/s^3): the tighter of translation and rotation.
+        let bound = |lin: f64, ang: f64| (lin / self.length).min(ang / self.angle);
+        let planned = [
+            bound(speed_m_s, l.angular_speed_rad_s),
+            bound(l.accel_m_s2, l.angular_accel_rad_s2),
+            bound(l.jerk_m_s3, l.angular_jerk_rad_s3),
+        ];
+        let mut b = planned;
+        // Peak u speed of the unslowed profile; the first limit violation; the last one
+        // (joint, what, ratio to the limit, TCP peak speed in m/s).
+        let mut planned_peak = f64::INFINITY;
+        let mut first: Option<(SlowReason, usize)> = None;
+        let mut last: Option<(usize, &str, f64, f64)> = None;
+        for attempt in 0..MAX_ATTEMPTS {
+            let profile = SCurve::new(1.0, b[0], b[1], b[2])?;
+            if attempt == 0 {
+                planned_peak = profile.peak_speed();
+            }
+            if let Some((joint, what, ratio, at)) = last
+                && profile.peak_speed() < MIN_SPEED_FRACTION * planned_peak
+            {
+                return Err(Error::JointLimit(format!(
+                    "{}: joint '{}' reaches {ratio:.2} times its {what} limit at a peak TCP \
+                     speed of {at:.4} m/s, and meeting it would take the segment below {:.0} % \
+                     of its planned speed (a singularity near the line?)",
+                    self.describe(),
+                    ctx.names[joint],
+                    MIN_SPEED_FRACTION * 100.0,
+                )));
+            }
+            let samples = self.sample(ctx, q0, &profile)?;
+            let peaks = peaks(ctx, &samples);
+            let (rv, jv) = peaks.velocity;
+            let (ra, ja) = peaks.acceleration;
+            if rv <= 1.0 && ra <= 1.0 {
+                let slowed = first.map(|(reason, joint)| SlowedSegment {
+                    segment: self.index,
+                    commanded_m_s: planned[0] * self.length,
+                    used_m_s: b[0] * self.length,
+                    limiting_joint: joint,
+                    reason,
+                });
+                return Ok(Some(PlannedSegment {
+                    samples,
+                    duration: profile.duration(),
+                    slowed,
+                }));
+            }
+            let by_velocity = rv >= ra.sqrt();
+            let violation = if by_velocity {
+                (SlowReason::JointVelocity, jv)
+            } else {
+                (SlowReason::JointAcceleration, ja)
+            };
+            first.get_or_insert(violation);
+            let at = profile.peak_speed() * self.length;
+            last = Some(if by_velocity {
+                (jv, "velocity", rv, at)
+            } else {
+                (ja, "acceleration", ra, at)
+            });
+            if by_velocity && attempt < SPEED_ONLY_ATTEMPTS {
+                b[0] = b[0].min(profile.peak_speed()) / (rv * (1.0 + SLOWDOWN_MARGIN));
+            } else {
+                let k = rv.max(ra.sqrt()) * (1.0 + SLOWDOWN_MARGIN);
+                b = [b[0] / k, b[1] / (k * k), b[2] / (k * k * k)];
+            }
+        }
+        Err(Error::JointLimit(format!(
+            "{}: slowing down did not bring the joints within their limits after {MAX_ATTEMPTS} \
+             attempts",
+            self.describe()
+        )))
+    }
+
+    /// Joint samples along the segment timed by `profile`, at most the sample period apart,
+    /// after the start (which is `q0` at rest).
+    fn sample(&self, ctx: &Context, q0: &[f64; 6], profile: &SCurve) -> Result<Vec<JointSample>> {
+        let duration = profile.duration();
+        let period = ctx.period;
+        let n = ((duration / period).ceil() as usize).max(1);
+        let h = duration / n as f64;
+        let mut jac = Matrix6xX::zeros(6);
+        let mut out: Vec<JointSample> = Vec::with_capacity(n);
+        let mut prev = JointSample {
+            t: 0.0,
+            q: *q0,
+            dq: [0.0; 6],
+            ddq: [0.0; 6],
+        };
+        let r0 = self.from.tcp.rotation;
+        let p0 = self.from.tcp.translation.vector;
+        for i in 1..=n {
+            let t = if i == n { duration } else { i as f64 * h };
+            let [u, du, ddu] = profile.sample(t);
+            let pose = if i == n {
+                self.to.tcp
+            } else {
+                Isometry3::from_parts(
+                    Translation3::from(p0 + self.delta * u),
+                    UnitQuaternion::from_scaled_axis(self.turn * u) * r0,
+                )
+            };
+            let place = || {
+                format!(
+                    "{} at t = {t:.4} s ({:.1} % of the way)",
+                    self.describe(),
+                    u * 100.0
+                )
+            };
+            let q = ctx
+                .opw
+                .solve_nearest(&pose, ctx.tcp, &prev.q)
+                .map_err(|e| located(e, &place()))?;
+            geometric_into(ctx.robot, &q, ctx.tcp, &mut jac);
+            let j6: Matrix6<f64> = jac.fixed_columns::<6>(0).into_owned();
+            let lu = j6.lu();
+            let singular = || {
+                Error::Unreachable(format!(
+                    "{}: the Jacobian is singular at q = {q:.4?} rad",
+                    place()
+                ))
+            };
+            let finite = |v: &Vector6<f64>| v.iter().all(|x| x.is_finite());
+            let twist = stack(&(self.delta * du), &(self.turn * du));
+            let dq: [f64; 6] = lu.solve(&twist).filter(finite).ok_or_else(singular)?.into();
+            let acc = stack(&(self.delta * ddu), &(self.turn * ddu))
+                - bias_acceleration(ctx.robot, &q, &dq, ctx.tcp);
+            let ddq: [f64; 6] = lu.solve(&acc).filter(finite).ok_or_else(singular)?.into();
+            let step = t - prev.t;
+            for j in 0..6 {
+                let jump = (q[j] - prev.q[j] - 0.5 * (dq[j] + prev.dq[j]) * step).abs();
+                if jump > JUMP_TOL {
+                    return Err(Error::Unreachable(format!(
+                        "{}: joint '{}' jumps by {:.4} rad between samples; the inverse \
+                         kinematics changes configuration (a singularity on the line)",
+                        place(),
+                        ctx.names[j],
+                        q[j] - prev.q[j]
+                    )));
+                }
+            }
+            prev = JointSample { t, q, dq, ddq };
+            out.push(prev);
+        }
+        Ok(out)
+    }
+}
+
+/// `[a; b]`.
+fn stack(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector6<f64> {
+    Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
+}
+
+/// Largest ratios of |dq| and |ddq| to their bounds over the samples, with the joints.
+fn peaks(ctx: &Context, samples: &[JointSample]) -> Peaks {
+    let mut p = Peaks {
+        velocity: (0.0, 0),
+        acceleration: (0.0, 0),
+    };
+    for s in samples {
+        for (j, (vmax, amax)) in ctx.vmax.iter().zip(&ctx.amax).enumerate() {
+            let rv = s.dq[j].abs() / vmax;
+            let ra = s.ddq[j].abs() / amax;
+            if rv > p.velocity.0 {
+                p.velocity = (rv, j);
+            }
+            if ra > p.acceleration.0 {
+                p.acceleration = (ra, j);
+            }
+        }
+    }
+    p
+}
+
+/// Joint-major sample columns for [`Sampled::new`].
+struct Output {
+    t: Vec<f64>,
+    q: Vec<Vec<f64>>,
+    dq: Vec<Vec<f64>>,
+    ddq: Vec<Vec<f64>>,
+}
+
+impl Output {
+    fn new(dof: usize) -> Self {
+        Output {
+            t: Vec::new(),
+            q: vec![Vec::new(); dof],
+            dq: vec![Vec::new(); dof],
+            ddq: vec![Vec::new(); dof],
+        }
+    }
+
+    fn push(&mut self, t: f64, q: &[f64; 6], dq: &[f64; 6], ddq: &[f64; 6]) {
+        self.t.push(t);
+        for j in 0..6 {
+            self.q[j].push(q[j]);
+            self.dq[j].push(dq[j]);
+            self.ddq[j].push(ddq[j]);
+        }
+    }
+}

@@ -1,0 +1,392 @@
+//! A task scenario: linear TCP moves through named via points with a tool, loads picked and
+//! released on the way, and the speed/load sweep to run it at. The built-in scenario is the
+//! pick-and-place task of Liu et al. 2018, Figure 12 ([`Scenario::builtin`]).
+//!
+//! # File format (TOML)
+//! `scenarios/pick_and_place.toml` documents every key with its unit. In short: `name`,
+//! `tool` (a built-in payload name or a `*.payload.toml` path relative to the scenario file),
+//! `seed_deg` (IK start configuration, deg), `path` (via point names in order), `[orientation]`
+//! (`x_base`, `z_base`: the TCP axes in the base frame, shared by all via points), `[points]`
+//! (name = TCP position in the base frame, m), `[[loads]]` (`name`, `pick_at`, `release_at`:
+//! 1-based steps of `path`; `mass_fraction` of the load level), `[motion]` (optional,
+//! [`LinearMoveOptions`] with `[motion.limits]` = [`MotionLimits`](super::linear_move::MotionLimits))
+//! and `[sweep]` (`speeds_m_s`, `loads_kg`). Unknown keys are errors.
+//!
+//! # Loads
+//! A load is a steel cube ([`Payload::cube`]) with its centre of mass at the tool's TCP. For a
+//! load level `L` (kg) it weighs `mass_fraction * L`; it is picked when the TCP arrives at step
+//! `pick_at` and released when it arrives at step `release_at`. `L = 0` leaves the tool alone
+//! on the flange throughout.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+use crate::model::Robot;
+use crate::model::builtin;
+use crate::model::payload::Payload;
+use crate::twin::PayloadEvent;
+
+use super::linear_move::{self, LinearMotion, LinearMoveOptions, ViaPose};
+
+/// Tolerance on the unit length and orthogonality of the orientation axes.
+const AXIS_TOL: f64 = 1e-6;
+
+/// The speeds and load levels to run a scenario at.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sweep {
+    /// Commanded TCP speeds, m/s (finite, > 0).
+    pub speeds_m_s: Vec<f64>,
+    /// Load levels `L`, kg (finite, >= 0).
+    pub loads_kg: Vec<f64>,
+}
+
+/// A load carried between two steps of the path.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Load {
+    /// Display name.
+    pub name: String,
+    /// Step of the path (1-based) at whose arrival the load is picked.
+    pub pick_at: usize,
+    /// Step of the path (1-based) at whose arrival it is released (> `pick_at`).
+    pub release_at: usize,
+    /// Mass as a fraction of the load level `L` (finite, > 0).
+    pub mass_fraction: f64,
+}
+
+/// A task scenario (see the [module docs](self)).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Display name.
+    pub name: String,
+    /// The tool (flange frame); it defines the TCP.
+    pub tool: Payload,
+    /// Joint configuration the inverse kinematics starts from, rad.
+    pub seed_rad: Vec<f64>,
+    /// Timing options and motion bounds of the linear moves.
+    pub motion: LinearMoveOptions,
+    /// Speeds and load levels to run the task at.
+    pub sweep: Sweep,
+    /// Via point names in order.
+    path: Vec<String>,
+    /// TCP positions by name, base frame, m.
+    points: BTreeMap<String, Vector3<f64>>,
+    /// TCP orientation at every via point, base frame.
+    orientation: UnitQuaternion<f64>,
+    /// Loads, sorted by `pick_at`, not overlapping.
+    loads: Vec<Load>,
+}
+
+/// A via point reached during a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViaArrival {
+    /// Via point name.
+    pub name: String,
+    /// Arrival time, s.
+    pub arrival_s: f64,
+    /// TCP position, base frame, m.
+    pub tcp_m: Vector3<f64>,
+}
+
+/// A scenario planned at one speed and load level.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TaskRun {
+    /// The joint motion (implements [`super::Trajectory`]) with arrival times and slowed
+    /// segments.
+    pub motion: LinearMotion,
+    /// What the flange carries: the tool from `t = 0`, tool and load from each pick, the tool
+    /// again from each release (sorted by time).
+    pub events: Vec<PayloadEvent>,
+    /// Every step of the path with its arrival time.
+    pub via: Vec<ViaArrival>,
+}
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScenarioFile {
+    name: String,
+    tool: String,
+    seed_deg: Vec<f64>,
+    path: Vec<String>,
+    orientation: OrientationFile,
+    points: BTreeMap<String, [f64; 3]>,
+    #[serde(default)]
+    loads: Vec<Load>,
+    #[serde(default)]
+    motion: LinearMoveOptions,
+    sweep: Sweep,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OrientationFile {
+    x_base: [f64; 3],
+    z_base: [f64; 3],
+}
+
+impl Scenario {
+    /// Parse a scenario's text; `label` names it in messages. A tool given as a file path is
+    /// read relative to the current directory.
+    ///
+    /// Errors: [`Error::Toml`] for malformed TOML, unknown or missing keys (with line and
+    /// column), an unknown via point name in `path`, non-finite or out-of-range values, axes
+    /// that are not unit and orthogonal, a tool without TCP, overlapping loads; the errors of
+    /// [`Payload::from_file`] for a tool file.
+    pub fn from_toml_str(text: &str, label: &str) -> Result<Scenario> {
+        parse(text, label, Path::new(""))
+    }
+
+    /// Read and parse a scenario file (see [`Scenario::from_toml_str`]); a tool file path is
+    /// relative to the scenario's directory. I/O failures give [`Error::Io`].
+    pub fn from_file(path: &Path) -> Result<Scenario> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        parse(&text, &path.display().to_string(), dir)
+    }
+
+    /// The built-in pick-and-place scenario ([`builtin::PICK_AND_PLACE`]).
+    pub fn builtin() -> Result<Scenario> {
+        Scenario::from_toml_str(
+            builtin::PICK_AND_PLACE,
+            "built-in scenario 'pick_and_place'",
+        )
+    }
+
+    /// Via point names in order (the first is the start).
+    pub fn path(&self) -> &[String] {
+        &self.path
+    }
+
+    /// TCP position of a named via point, base frame, m.
+    pub fn point(&self, name: &str) -> Option<Vector3<f64>> {
+        self.points.get(name).copied()
+    }
+
+    /// TCP orientation at every via point, base frame.
+    pub fn orientation(&self) -> UnitQuaternion<f64> {
+        self.orientation
+    }
+
+    /// The loads, sorted by pick step.
+    pub fn loads(&self) -> &[Load] {
+        &self.loads
+    }
+
+    /// TCP pose in the flange frame, m: the tool's TCP (the flange centre if the tool has
+    /// none), with the flange orientation.
+    pub fn tcp(&self) -> Isometry3<f64> {
+        let p = self.tool.tcp.unwrap_or_default();
+        Isometry3::from_parts(Translation3::from(p), UnitQuaternion::identity())
+    }
+
+    /// Plan the task on `robot` (bare, without payload) at the commanded TCP speed
+    /// `speed_m_s` (m/s) and load level `load_kg` (kg, see the [module docs](self)).
+    ///
+    /// Errors: [`Error::InvalidInput`] for a load level that is not finite and non-negative;
+    /// the errors of [`linear_move::plan`] (unreachable via points and joint-limit problems
+    /// name the via point or the segment).
+    pub fn plan(&self, robot: &Robot, speed_m_s: f64, load_kg: f64) -> Result<TaskRun> {
+        if !(load_kg.is_finite() && load_kg >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "load level {load_kg} kg must be finite and non-negative"
+            )));
+        }
+        let tcp = self.tcp();
+        let via: Vec<ViaPose> = self
+            .path
+            .iter()
+            .map(|name| ViaPose {
+                name: name.clone(),
+                tcp: Isometry3::from_parts(Translation3::from(self.points[name]), self.orientation),
+            })
+            .collect();
+        let motion = linear_move::plan(robot, &tcp, &self.seed_rad, &via, speed_m_s, &self.motion)?;
+        let arrival = |step: usize| motion.arrivals_s[step - 1];
+        let mut events = vec![PayloadEvent {
+            t_s: 0.0,
+            payload: Some(self.tool.clone()),
+        }];
+        if load_kg > 0.0 {
+            for load in &self.loads {
+                let mass = load.mass_fraction * load_kg;
+                let cube = Payload::cube(
+                    &format!("{} ({mass} kg)", load.name),
+                    mass,
+                    tcp.translation.vector,
+                )?;
+                events.push(PayloadEvent {
+                    t_s: arrival(load.pick_at),
+                    payload: Some(self.tool.combined(&cube)),
+                });
+                events.push(PayloadEvent {
+                    t_s: arrival(load.release_at),
+                    payload: Some(self.tool.clone()),
+                });
+            }
+        }
+        let via = via
+            .into_iter()
+            .zip(&motion.arrivals_s)
+            .map(|(v, &t)| ViaArrival {
+                name: v.name,
+                arrival_s: t,
+                tcp_m: v.tcp.translation.vector,
+            })
+            .collect();
+        Ok(TaskRun {
+            motion,
+            events,
+            via,
+        })
+    }
+}
+
+/// Parse and check a scenario; `dir` resolves a tool file path.
+fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
+    let err = |message: String| Error::Toml {
+        file: label.to_string(),
+        message,
+    };
+    let file: ScenarioFile =
+        toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+
+    let tool = if builtin::PAYLOAD_NAMES.contains(&file.tool.as_str()) {
+        builtin::payload(&file.tool)?
+    } else {
+        Payload::from_file(&dir.join(&file.tool))?
+    };
+    if tool.tcp.is_none() {
+        return Err(err(format!(
+            "tool '{}' defines no TCP (tcp_m); linear moves need one",
+            file.tool
+        )));
+    }
+
+    if let Some(i) = file.seed_deg.iter().position(|v| !v.is_finite()) {
+        return Err(err(format!("seed_deg[{}] must be finite", i + 1)));
+    }
+
+    let mut points = BTreeMap::new();
+    for (name, p) in &file.points {
+        if !p.iter().all(|v| v.is_finite()) {
+            return Err(err(format!("points.{name} = {p:?} must be finite")));
+        }
+        points.insert(name.clone(), Vector3::from(*p));
+    }
+    if file.path.len() < 2 {
+        return Err(err(format!(
+            "path has {} via points; it needs at least 2 (the start and a target)",
+            file.path.len()
+        )));
+    }
+    for (k, name) in file.path.iter().enumerate() {
+        if !points.contains_key(name) {
+            let known: Vec<&str> = points.keys().map(String::as_str).collect();
+            return Err(err(format!(
+                "path[{}] = '{name}' is not a via point (defined in [points]: {})",
+                k + 1,
+                known.join(", ")
+            )));
+        }
+    }
+
+    let orientation = orientation(&file.orientation).map_err(err)?;
+
+    let mut loads = file.loads;
+    loads.sort_by_key(|l| l.pick_at);
+    let steps = file.path.len();
+    for (k, l) in loads.iter().enumerate() {
+        if !(1 <= l.pick_at && l.pick_at < l.release_at && l.release_at <= steps) {
+            return Err(err(format!(
+                "load '{}': pick_at = {} and release_at = {} must satisfy \
+                 1 <= pick_at < release_at <= {steps} (steps of path)",
+                l.name, l.pick_at, l.release_at
+            )));
+        }
+        if !(l.mass_fraction.is_finite() && l.mass_fraction > 0.0) {
+            return Err(err(format!(
+                "load '{}': mass_fraction = {} must be finite and positive",
+                l.name, l.mass_fraction
+            )));
+        }
+        if k > 0 && l.pick_at < loads[k - 1].release_at {
+            return Err(err(format!(
+                "load '{}' is picked at step {} before load '{}' is released at step {}",
+                l.name,
+                l.pick_at,
+                loads[k - 1].name,
+                loads[k - 1].release_at
+            )));
+        }
+    }
+
+    let sweep = file.sweep;
+    if sweep.speeds_m_s.is_empty() || sweep.loads_kg.is_empty() {
+        return Err(err(
+            "sweep.speeds_m_s and sweep.loads_kg need at least one value each".into(),
+        ));
+    }
+    if let Some(v) = sweep
+        .speeds_m_s
+        .iter()
+        .find(|v| !(v.is_finite() && **v > 0.0))
+    {
+        return Err(err(format!(
+            "sweep.speeds_m_s contains {v}; speeds must be finite and positive"
+        )));
+    }
+    if let Some(v) = sweep
+        .loads_kg
+        .iter()
+        .find(|v| !(v.is_finite() && **v >= 0.0))
+    {
+        return Err(err(format!(
+            "sweep.loads_kg contains {v}; loads must be finite and non-negative"
+        )));
+    }
+
+    Ok(Scenario {
+        name: file.name,
+        tool,
+        seed_rad: file.seed_deg.iter().map(|d| d.to_radians()).collect(),
+        motion: file.motion,
+        sweep,
+        path: file.path,
+        points,
+        orientation,
+        loads,
+    })
+}
+
+/// The rotation whose x and z axes are `x_base` and `z_base` (unit within [`AXIS_TOL`] and
+/// orthogonal), or why not.
+fn orientation(o: &OrientationFile) -> std::result::Result<UnitQuaternion<f64>, String> {
+    let x = Vector3::from(o.x_base);
+    let z = Vector3::from(o.z_base);
+    for (name, v) in [("x_base", &x), ("z_base", &z)] {
+        if !(v.iter().all(|c| c.is_finite()) && (v.norm() - 1.0).abs() <= AXIS_TOL) {
+            return Err(format!(
+                "orientation.{name} = {:?} must be a unit vector",
+                v.as_slice()
+            ));
+        }
+    }
+    if x.dot(&z).abs() > AXIS_TOL {
+        return Err(format!(
+            "orientation.x_base and z_base are not orthogonal (dot product {:.3e})",
+            x.dot(&z)
+        ));
+    }
+    let x = x.normalize();
+    let z = (z - x * x.dot(&z)).normalize();
+    let m = Matrix3::from_columns(&[x, z.cross(&x), z]);
+    Ok(UnitQuaternion::from_rotation_matrix(
+        &Rotation3::from_matrix_unchecked(m),
+    ))
+}
