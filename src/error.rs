@@ -88,6 +88,18 @@ impl Error {
             source,
         }
     }
+
+    /// The same error with `context` put in front of its message (kind kept), e.g. which run
+    /// of a sweep failed. Errors with structured fields are returned unchanged.
+    pub fn context(self, context: &str) -> Self {
+        match self {
+            Error::InvalidInput(m) => Error::InvalidInput(format!("{context}: {m}")),
+            Error::JointLimit(m) => Error::JointLimit(format!("{context}: {m}")),
+            Error::Unreachable(m) => Error::Unreachable(format!("{context}: {m}")),
+            Error::Model(m) => Error::Model(format!("{context}: {m}")),
+            other => other,
+        }
+    }
 }
 
 /// Check that every value of a slice is finite; `what` names the quantity in the message.

@@ -132,9 +132,12 @@ fn tcp_follows_the_lines_and_stops_at_every_via_point() {
 #[test]
 fn tcp_cruises_at_the_commanded_speed_when_the_leg_is_long_enough() {
     let robot = common::irb1200();
+    // The library's default (Pilz) limits, not the scenario's faster ones: no leg is slowed.
     let lim = LinearMoveOptions::default().limits;
+    let mut sc = Scenario::builtin().unwrap();
+    sc.motion = LinearMoveOptions::default();
     for speed in [0.05, 0.5, 1.0] {
-        let (sc, run) = builtin_run(&robot, speed, 0.0);
+        let run = sc.plan(&robot, speed, 0.0).unwrap();
         assert!(
             run.motion.slowed.is_empty(),
             "{speed}: {:?}",
@@ -210,9 +213,10 @@ fn joint_velocity_and_acceleration_match_finite_differences_of_the_path() {
     // closed-form IK. Its central differences must match the planned dq and ddq.
     let robot = common::irb1200();
     let opw = Opw::from_robot(&robot).unwrap();
-    let lim = LinearMoveOptions::default().limits;
     let speed = 0.3;
     let (sc, run) = builtin_run(&robot, speed, 0.0);
+    assert!(run.motion.slowed.is_empty(), "{:?}", run.motion.slowed);
+    let lim = sc.motion.limits.clone();
     let tcp = sc.tcp();
     let h = 1e-4;
     let (mut ep, mut ev, mut ea) = (0.0f64, 0.0f64, 0.0f64);
@@ -401,7 +405,7 @@ fn bad_files_give_clear_errors() {
     assert!(m.contains("line"), "{m}");
     let m = toml_err(&edited("dwell_s = 0.0", "dwell_s = 0.0\nspeed = 1.0"));
     assert!(m.contains("speed"), "{m}");
-    let m = toml_err(&edited("jerk_m_s3 = 20.0", "jerk = 20.0"));
+    let m = toml_err(&edited("jerk_m_s3 = 80.0", "jerk = 20.0"));
     assert!(m.contains("jerk"), "{m}");
     let m = toml_err(&edited("\"F\", \"E\"", "\"G\", \"E\""));
     assert!(m.contains("'G'") && m.contains("path[11]"), "{m}");

@@ -101,7 +101,9 @@ impl PowerModel {
     /// Predicted energy (J) of following `traj`, integrating the power at step `dt` (s) with
     /// the trapezoidal rule (paper eq. 14).
     pub fn energy(&self, robot: &Robot, traj: &dyn Trajectory, dt: f64) -> Result<f64> {
-        Ok(self.energy_with_payloads(robot, traj, &[], 1.0, dt)?.motor_j)
+        Ok(self
+            .energy_with_payloads(robot, traj, &[], 1.0, dt)?
+            .motor_j)
     }
 
     /// The model of the same robot carrying `payload` at the flange, predicted from the
@@ -206,8 +208,7 @@ impl PowerModel {
         let mut ws = Workspace::new(robot);
         let mut w = DMatrix::zeros(n, self.layout.len());
         let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        Ok(t
-            .iter()
+        Ok(t.iter()
             .map(|&t| {
                 let model = models
                     .iter()

@@ -34,7 +34,7 @@
 //! than [`MIN_SPEED_FRACTION`] of its planned speed is an error.
 
 use nalgebra::{Isometry3, Matrix6, Matrix6xX, Translation3, UnitQuaternion, Vector3, Vector6};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::kinematics::ik::Opw;
@@ -50,9 +50,11 @@ use super::sampled::Sampled;
 /// needing less is reported as an error ([`Error::JointLimit`]).
 pub const MIN_SPEED_FRACTION: f64 = 0.01;
 
-/// Safety factor on the limits when slowing a segment (the peak between samples may be a
-/// little higher than at the samples).
+/// Safety factor on the limits when slowing a segment.
 const SLOWDOWN_MARGIN: f64 = 1e-3;
+/// Fraction of the joint velocity and acceleration limits the samples may reach: between the
+/// samples (at most `sample_period_s` apart) the interpolated motion may peak a little higher.
+const LIMIT_USE: f64 = 0.995;
 /// Slowing attempts that lower only the speed bound before stretching the segment in time.
 const SPEED_ONLY_ATTEMPTS: usize = 8;
 /// Slowing attempts in all.
@@ -137,7 +139,8 @@ pub struct ViaPose {
 }
 
 /// Which joint limit made a segment slow down.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SlowReason {
     /// A joint velocity limit (robot model).
     JointVelocity,
@@ -146,7 +149,7 @@ pub enum SlowReason {
 }
 
 /// A segment that was slowed down to respect the joint limits.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SlowedSegment {
     /// Segment index, 0-based: from via point `segment` to via point `segment + 1`.
     pub segment: usize,
@@ -637,8 +640,8 @@ fn peaks(ctx: &Context, samples: &[JointSample]) -> Peaks {
     };
     for s in samples {
         for (j, (vmax, amax)) in ctx.vmax.iter().zip(&ctx.amax).enumerate() {
-            let rv = s.dq[j].abs() / vmax;
-            let ra = s.ddq[j].abs() / amax;
+            let rv = s.dq[j].abs() / (LIMIT_USE * vmax);
+            let ra = s.ddq[j].abs() / (LIMIT_USE * amax);
             if rv > p.velocity.0 {
                 p.velocity = (rv, j);
             }

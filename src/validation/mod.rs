@@ -6,6 +6,8 @@
 //! * [`estimators`]: the paper's steps against all-at-once estimators on the same data.
 //! * [`params`]: identified against true base parameters (Table 2) and a physical-consistency
 //!   check of an identified model.
+//! * [`sweep`]: the pick-and-place task over speeds and loads (Figure 14).
+//! * [`reproduce`]: all of the above in order, as `powertwin reproduce` runs them.
 //!
 //! Every experiment runs the twin through a [`rig::Rig`] and reports progress through
 //! [`rig::Progress`].
@@ -13,5 +15,7 @@
 pub mod estimators;
 pub mod params;
 pub mod payloads;
+pub mod reproduce;
 pub mod rig;
 pub mod steps;
+pub mod sweep;

@@ -1,0 +1,266 @@
+//! The charts of `powertwin reproduce`, built from its outcome.
+
+use crate::error::Result;
+use crate::model::Robot;
+use crate::report::plot::{Annotation, Chart, Series, Style, XAxis};
+use crate::validation::reproduce::Outcome;
+
+/// Charts with their file stem and caption.
+pub struct Figure {
+    /// File stem (`stem.svg`, `stem.png`).
+    pub stem: String,
+    /// One-line caption.
+    pub caption: String,
+    /// The chart.
+    pub chart: Chart,
+}
+
+/// Every chart of the report: energy against speed per load, the prediction error per sweep
+/// cell, Table 3's errors, and power traces (simulated against predicted) of the last
+/// identification step and of one sweep cell. `efficiency`: the drives' nominal efficiency.
+pub fn figures(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Vec<Figure>> {
+    let mut out = vec![
+        energy_vs_speed(outcome),
+        error_per_cell(outcome),
+        table3(outcome),
+    ];
+    out.extend(step_trace(robot, outcome)?);
+    out.extend(sweep_trace(robot, outcome, efficiency)?);
+    Ok(out)
+}
+
+fn loads(outcome: &Outcome) -> Vec<f64> {
+    let mut loads: Vec<f64> = Vec::new();
+    for c in &outcome.sweep.cells {
+        if !loads.contains(&c.load_kg) {
+            loads.push(c.load_kg);
+        }
+    }
+    loads
+}
+
+fn energy_vs_speed(outcome: &Outcome) -> Figure {
+    let mut chart = Chart::new(
+        "Pick and place: energy per cycle against TCP speed",
+        "TCP speed (m/s)",
+        "Motor energy per cycle (J)",
+    )
+    .with_x_axis(XAxis::Log);
+    for load in loads(outcome) {
+        let cells: Vec<_> = outcome
+            .sweep
+            .cells
+            .iter()
+            .filter(|c| c.load_kg == load)
+            .collect();
+        chart = chart
+            .with_series(Series::new(
+                format!("twin, load {load} kg"),
+                cells.iter().map(|c| (c.speed_m_s, c.simulated_j)).collect(),
+                Style::LineMarkers,
+            ))
+            .with_series(
+                Series::new(
+                    format!("model, load {load} kg"),
+                    cells.iter().map(|c| (c.speed_m_s, c.predicted_j)).collect(),
+                    Style::Line,
+                )
+                .dashed(),
+            );
+    }
+    for o in &outcome.sweep.optima {
+        chart = chart.with_annotation(Annotation::Point {
+            x: o.predicted_m_s,
+            y: o.predicted_j,
+            label: format!("{:.2} m/s", o.predicted_m_s),
+        });
+    }
+    Figure {
+        stem: "energy_vs_speed".into(),
+        caption: "Energy per cycle against TCP speed per load: twin (solid) and identified \
+                  model (dashed), with the model's optimum speed"
+            .into(),
+        chart,
+    }
+}
+
+fn error_per_cell(outcome: &Outcome) -> Figure {
+    let mut speeds: Vec<f64> = Vec::new();
+    for c in &outcome.sweep.cells {
+        if !speeds.contains(&c.speed_m_s) {
+            speeds.push(c.speed_m_s);
+        }
+    }
+    let mut chart = Chart::new(
+        "Prediction error per sweep cell",
+        "TCP speed (m/s)",
+        "Energy error (%)",
+    )
+    .with_x_axis(XAxis::Categories(
+        speeds.iter().map(|v| format!("{v}")).collect(),
+    ));
+    for load in loads(outcome) {
+        let values: Vec<f64> = speeds
+            .iter()
+            .map(|&v| {
+                outcome
+                    .sweep
+                    .cells
+                    .iter()
+                    .find(|c| c.load_kg == load && c.speed_m_s == v)
+                    .map_or(0.0, |c| c.error_pct)
+            })
+            .collect();
+        chart = chart.with_series(Series::bars(format!("load {load} kg"), &values));
+    }
+    Figure {
+        stem: "error_per_cell".into(),
+        caption: "Predicted against simulated energy per sweep cell, %".into(),
+        chart,
+    }
+}
+
+fn table3(outcome: &Outcome) -> Figure {
+    let rows = &outcome.steps.rows;
+    let mut chart = Chart::new(
+        "Table 3: energy error per identification step",
+        "Step (excited joints)",
+        "Energy error (%)",
+    )
+    .with_x_axis(XAxis::Categories(
+        rows.iter()
+            .map(|r| {
+                format!(
+                    "{} ({}-{})",
+                    r.step,
+                    r.joints[0],
+                    r.joints[r.joints.len() - 1]
+                )
+            })
+            .collect(),
+    ))
+    .with_series(Series::bars(
+        "paper's method on the twin",
+        &rows.iter().map(|r| r.error_pct).collect::<Vec<_>>(),
+    ));
+    for e in outcome
+        .estimators
+        .iter()
+        .filter(|e| e.method != "paper-steps")
+    {
+        chart = chart.with_series(Series::bars(
+            format!("{} (final model)", e.method),
+            &e.error_pct,
+        ));
+    }
+    Figure {
+        stem: "table3_errors".into(),
+        caption: "Energy error per identification step".into(),
+        chart,
+    }
+}
+
+/// Simulated (logged, 10 Hz) and predicted total power of the last step.
+fn step_trace(robot: &Robot, outcome: &Outcome) -> Result<Option<Figure>> {
+    let (Some(ds), Some(traj)) = (
+        outcome.steps.datasets.last(),
+        outcome.steps.trajectories.last(),
+    ) else {
+        return Ok(None);
+    };
+    let best = &outcome.estimators[outcome.best];
+    let t = &ds.measured.t;
+    let predicted = best.model.power_with_payloads(robot, traj, &[], 1.0, t)?;
+    let chart = Chart::new(
+        "Identification step 6: total motor power",
+        "Time (s)",
+        "Total motor power (W)",
+    )
+    .with_series(Series::new(
+        "twin (logged)",
+        t.iter()
+            .copied()
+            .zip(ds.measured.p_total.iter().copied())
+            .collect(),
+        Style::Line,
+    ))
+    .with_series(
+        Series::new(
+            format!("{} model", best.method),
+            t.iter().copied().zip(predicted).collect(),
+            Style::Line,
+        )
+        .dashed(),
+    );
+    Ok(Some(Figure {
+        stem: "power_step6".into(),
+        caption: "Total motor power during step 6: twin against the identified model".into(),
+        chart,
+    }))
+}
+
+/// Simulated and predicted total power of the heaviest sweep cell at the speed nearest
+/// 0.5 m/s (the speed of the paper's Figure 13).
+fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Option<Figure>> {
+    let cells = &outcome.sweep.cells;
+    let Some(k) = (0..cells.len()).min_by(|&a, &b| {
+        let key = |i: usize| ((cells[i].speed_m_s - 0.5).abs(), -cells[i].load_kg);
+        key(a)
+            .partial_cmp(&key(b))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    }) else {
+        return Ok(None);
+    };
+    let (cell, ds, plan) = (
+        &cells[k],
+        &outcome.sweep.datasets[k],
+        &outcome.sweep.plans[k],
+    );
+    let best = &outcome.estimators[outcome.best];
+    let stride = (ds.truth.t.len() / 2000).max(1);
+    let t: Vec<f64> = ds.truth.t.iter().step_by(stride).copied().collect();
+    let simulated: Vec<f64> = ds.truth.p_total.iter().step_by(stride).copied().collect();
+    let predicted = best.model.power_with_payloads(
+        robot,
+        &plan.motion.trajectory,
+        &plan.events,
+        efficiency,
+        &t,
+    )?;
+    let mut chart = Chart::new(
+        format!(
+            "Pick and place at {} m/s, load {} kg: total motor power",
+            cell.speed_m_s, cell.load_kg
+        ),
+        "Time (s)",
+        "Total motor power (W)",
+    )
+    .with_series(Series::new(
+        "twin",
+        t.iter().copied().zip(simulated).collect(),
+        Style::Line,
+    ))
+    .with_series(
+        Series::new(
+            format!("{} model", best.method),
+            t.iter().copied().zip(predicted).collect(),
+            Style::Line,
+        )
+        .dashed(),
+    );
+    for v in &plan.via {
+        chart = chart.with_annotation(Annotation::Point {
+            x: v.arrival_s,
+            y: 0.0,
+            label: v.name.clone(),
+        });
+    }
+    Ok(Some(Figure {
+        stem: "power_pick_and_place".into(),
+        caption: format!(
+            "Total motor power of the pick-and-place task at {} m/s with load {} kg",
+            cell.speed_m_s, cell.load_kg
+        ),
+        chart,
+    }))
+}

@@ -1,0 +1,268 @@
+//! `report.md`: the human-readable outcome of `powertwin reproduce`, rendered from the same
+//! [`Results`] as `results.json` so the two never disagree.
+
+use std::fmt::Write;
+
+use crate::report::results::Results;
+
+/// Energy errors of the paper's Table 3 (steps 1..6), %: the reference the twin is compared
+/// with (Liu et al. 2018; `shared/reference/irb1200.md` 5.1).
+const PAPER_TABLE3_PCT: [f64; 6] = [10.4, 5.4, 2.5, 1.5, 1.4, 1.8];
+/// Energy errors of the paper's Table 4 (no tool, tool, tool + 1, 2, 4 kg), %.
+const PAPER_TABLE4_PCT: [f64; 5] = [0.25, 0.91, 1.35, 1.1, 0.24];
+/// Relative standard deviation (%) below which a base parameter counts as well excited.
+pub const WELL_EXCITED_REL_STD_PCT: f64 = 1.0;
+
+/// Render the report. `plots` are the stems of the charts written beside it (`stem.svg`,
+/// `stem.png`) with a caption each.
+pub fn render(r: &Results, plots: &[(String, String)]) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    let st = &r.settings;
+    let _ = writeln!(w, "# powertwin reproduce: Liu et al. 2018 on the twin\n");
+    let _ = writeln!(
+        w,
+        "Robot `{}`; twin motor model `{}`, physics step {} ms with {} substeps; logger {} Hz, \
+         noise {}{}. Written by {} {} in {:.1} s.\n",
+        st.robot,
+        st.motor_model,
+        st.dt_s * 1e3,
+        st.substeps,
+        st.sample_rate_hz,
+        if st.noise { "on (defaults)" } else { "off" },
+        if st.quick { "; `--quick` run" } else { "" },
+        r.program.name,
+        r.program.version,
+        r.total_wall_s
+    );
+    let _ = writeln!(
+        w,
+        "Simulated energies come from the Rapier twin (commanded torques times the motion \
+         Rapier produced, through the motor model); predicted energies from the model \
+         identified from the logged joint positions and total power only, evaluated on the \
+         commanded trajectory. Errors are `100 (predicted - simulated) / simulated`.\n"
+    );
+
+    let _ = writeln!(w, "## Table 3: six identification steps (paper's method)\n");
+    let _ = writeln!(
+        w,
+        "| step | excited joints | cond before -> after | identified | residual W | simulated J | predicted J | error % | paper error % |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|");
+    for (k, row) in r.table3.iter().enumerate() {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {:.3e} -> {:.1} | {} | {:.3} | {:.2} | {:.2} | {:+.3} | {} |",
+            row.step,
+            join(&row.joints),
+            row.design_cond_initial,
+            row.design_cond_final,
+            row.identified.len().saturating_sub(1),
+            row.residual_rms_w,
+            row.simulated_j,
+            row.predicted_j,
+            row.error_pct,
+            PAPER_TABLE3_PCT
+                .get(k)
+                .map_or("".into(), |p| format!("{p}"))
+        );
+    }
+
+    let _ = writeln!(w, "\n## Estimators on the same data\n");
+    let _ = writeln!(
+        w,
+        "Each model predicts every step's trajectory (errors %). `paper-steps` is the model \
+         after step 6; `total` identifies all base parameters at once from the pooled total \
+         power; `pmsm` adds the copper-loss terms (Levenberg–Marquardt). Consistency: the \
+         model's mass matrix is positive definite at 200 random poses and no friction or rotor \
+         inertia is negative.\n"
+    );
+    let n = r.table3.len();
+    let header: Vec<String> = (1..=n).map(|k| format!("step {k}")).collect();
+    let _ = writeln!(
+        w,
+        "| method | {} | max abs % | min eig M kg m^2 | consistent |",
+        header.join(" | ")
+    );
+    let _ = writeln!(w, "|---|{}---|---|---|", "---|".repeat(n));
+    for e in &r.estimators {
+        let errs: Vec<String> = e.error_pct.iter().map(|x| format!("{x:+.3}")).collect();
+        let _ = writeln!(
+            w,
+            "| {}{} | {} | {:.3} | {:.4} | {} |",
+            e.method,
+            if e.method == r.best_estimator {
+                " (best)"
+            } else {
+                ""
+            },
+            errs.join(" | "),
+            e.max_abs_error_pct,
+            e.consistency.min_eigenvalue,
+            if e.consistency.consistent {
+                "yes".to_string()
+            } else {
+                format!("no {}", e.consistency.negative_drive_terms.join(" "))
+            }
+        );
+    }
+
+    for e in &r.estimators {
+        let rows = &e.table2;
+        let well: Vec<_> = rows
+            .iter()
+            .filter(|p| p.rel_std_pct.is_some_and(|s| s < WELL_EXCITED_REL_STD_PCT))
+            .collect();
+        let worst_well = well
+            .iter()
+            .filter_map(|p| p.error_pct)
+            .fold(0.0_f64, |m, x| m.max(x.abs()));
+        let _ = writeln!(
+            w,
+            "\n## Table 2 ({}): identified vs true base parameters\n",
+            e.method
+        );
+        let _ = writeln!(
+            w,
+            "{} of {} parameters are well excited (relative standard deviation < {} %); \
+             their largest error is {:.3} %. Truth: the twin's base parameters{}.\n",
+            well.len(),
+            rows.len(),
+            WELL_EXCITED_REL_STD_PCT,
+            worst_well,
+            if e.method == "pmsm" {
+                " (SI)"
+            } else if st.motor_model == "efficiency" {
+                ", divided by the nominal efficiency"
+            } else {
+                " (SI; the linear model also absorbs the copper losses it does not represent)"
+            }
+        );
+        let _ = writeln!(
+            w,
+            "| parameter | identified | true | error % | rel. std % |"
+        );
+        let _ = writeln!(w, "|---|---|---|---|---|");
+        for p in rows {
+            let _ = writeln!(
+                w,
+                "| {} | {:.6} | {:.6} | {} | {} |",
+                p.name,
+                p.identified,
+                p.truth,
+                p.error_pct.map_or("-".into(), |x| format!("{x:+.3}")),
+                p.rel_std_pct.map_or("-".into(), |x| format!("{x:.3}"))
+            );
+        }
+    }
+
+    let _ = writeln!(w, "\n## Table 4: tool and loads on step 6's trajectory\n");
+    let _ = writeln!(
+        w,
+        "Re-identified: the base parameters that carry link 6 identified again from the case's \
+         data (paper). Known payload: the `{}` model plus the payload's mass properties, no \
+         new data.\n",
+        r.best_estimator
+    );
+    let _ = writeln!(
+        w,
+        "| case | payload kg | simulated J | re-identified J | error % | known payload J | error % | paper error % |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|");
+    for (k, c) in r.table4.iter().enumerate() {
+        let _ = writeln!(
+            w,
+            "| {} | {:.2} | {:.2} | {:.2} | {:+.3} | {:.2} | {:+.3} | {} |",
+            c.case,
+            c.payload_kg,
+            c.simulated_j,
+            c.reidentified_j,
+            c.reidentified_error_pct,
+            c.known_payload_j,
+            c.known_payload_error_pct,
+            PAPER_TABLE4_PCT
+                .get(k)
+                .map_or("".into(), |p| format!("{p}"))
+        );
+    }
+
+    let _ = writeln!(w, "\n## Figure 14: pick-and-place speed x load sweep\n");
+    let _ = writeln!(
+        w,
+        "Predicted: the `{}` model on the planned motion with the known tool and loads.\n",
+        r.best_estimator
+    );
+    let _ = writeln!(
+        w,
+        "| speed m/s | load kg | cycle s | simulated J | grid J | predicted J | error % | slowed segments |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|");
+    for c in &r.sweep.cells {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {:.2} | {:.1} | {:.1} | {:.1} | {:+.3} | {} |",
+            c.speed_m_s,
+            c.load_kg,
+            c.cycle_time_s,
+            c.simulated_j,
+            c.simulated_grid_j,
+            c.predicted_j,
+            c.error_pct,
+            c.slowed.len()
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\n| load kg | optimal cell m/s | interpolated m/s | model's optimum m/s | its energy J | interior |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|");
+    for o in &r.sweep.optima {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {:.3} | {:.3} | {:.1} | {} |",
+            o.load_kg,
+            o.simulated_cell_m_s,
+            o.simulated_interpolated_m_s,
+            o.predicted_m_s,
+            o.predicted_j,
+            if o.interior { "yes" } else { "no" }
+        );
+    }
+    let front: Vec<String> = r
+        .sweep
+        .pareto
+        .iter()
+        .map(|&k| {
+            let c = &r.sweep.cells[k];
+            format!("{} kg @ {} m/s", c.load_kg, c.speed_m_s)
+        })
+        .collect();
+    let _ = writeln!(
+        w,
+        "\nEnergy / cycle-time Pareto front per load: {}.",
+        front.join(", ")
+    );
+
+    if !plots.is_empty() {
+        let _ = writeln!(w, "\n## Plots\n");
+        for (stem, caption) in plots {
+            let _ = writeln!(
+                w,
+                "![{caption}]({stem}.svg) ({caption}; also `{stem}.png`)\n"
+            );
+        }
+    }
+    let _ = writeln!(w, "## Timings\n\n| stage | wall s |\n|---|---|");
+    for t in &r.timings {
+        let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
+    }
+    let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
+    s
+}
+
+fn join(v: &[usize]) -> String {
+    v.iter()
+        .map(|x| x.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}

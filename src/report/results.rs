@@ -1,0 +1,162 @@
+//! `results.json`: the machine-readable outcome of `powertwin reproduce`. The schema is the
+//! serialisation of [`Results`]; every field is documented here and in
+//! `docs/results-schema.md`. Energies in J, powers in W, speeds in m/s, masses in kg, times
+//! in s, errors in % of the simulated value (`100 (predicted - simulated) / simulated`).
+
+use serde::Serialize;
+
+use crate::dataset::meta::Program;
+use crate::validation::params::{Consistency, ParamRow};
+use crate::validation::payloads::CaseRow;
+use crate::validation::reproduce::{Outcome, StageTime};
+use crate::validation::sweep::{Cell, Optimum};
+
+/// Version of this schema; bumped on any incompatible change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The whole file.
+#[derive(Debug, Clone, Serialize)]
+pub struct Results {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// The program that wrote it.
+    pub program: Program,
+    /// How the twin and logger were set up.
+    pub settings: Settings,
+    /// Table 3: one row per identification step.
+    pub table3: Vec<Table3Row>,
+    /// Every estimator on the steps' data, with its Table 2.
+    pub estimators: Vec<Estimator>,
+    /// Method name of the estimator used for Table 4's known payloads and the sweep.
+    pub best_estimator: String,
+    /// Table 4: one row per tool/load case.
+    pub table4: Vec<CaseRow>,
+    /// Figure 14.
+    pub sweep: SweepResults,
+    /// Wall time per stage.
+    pub timings: Vec<StageTime>,
+    /// Wall time of the whole run, s.
+    pub total_wall_s: f64,
+}
+
+/// Twin and logger settings.
+#[derive(Debug, Clone, Serialize)]
+pub struct Settings {
+    /// Robot name.
+    pub robot: String,
+    /// Motor model of the twin (`pmsm` or `efficiency`).
+    pub motor_model: String,
+    /// Physics step, s.
+    pub dt_s: f64,
+    /// Rapier substeps per physics step.
+    pub substeps: usize,
+    /// Logger rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Whether measurement noise was on.
+    pub noise: bool,
+    /// Whether this was a `--quick` run.
+    pub quick: bool,
+}
+
+/// One row of Table 3.
+#[derive(Debug, Clone, Serialize)]
+pub struct Table3Row {
+    /// 1-based step.
+    pub step: usize,
+    /// Excited joints, 1-based.
+    pub joints: Vec<usize>,
+    /// Condition number of the excitation regressor before the design.
+    pub design_cond_initial: f64,
+    /// After the design.
+    pub design_cond_final: f64,
+    /// Base parameters identified in this step.
+    pub identified: Vec<String>,
+    /// RMS of the step's power residual, W.
+    #[serde(rename = "residual_rms_W")]
+    pub residual_rms_w: f64,
+    /// Twin's motor energy, J.
+    #[serde(rename = "simulated_J")]
+    pub simulated_j: f64,
+    /// Predicted with the parameters known after the step, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Error, %.
+    pub error_pct: f64,
+}
+
+/// One estimator.
+#[derive(Debug, Clone, Serialize)]
+pub struct Estimator {
+    /// `paper-steps`, `total` or `pmsm`.
+    pub method: String,
+    /// Predicted energy of each step's trajectory with the final model, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: Vec<f64>,
+    /// Its error per step, %.
+    pub error_pct: Vec<f64>,
+    /// Largest absolute error, %.
+    pub max_abs_error_pct: f64,
+    /// Physical-consistency check.
+    pub consistency: Consistency,
+    /// Table 2: identified against true base parameters.
+    pub table2: Vec<ParamRow>,
+}
+
+/// Figure 14.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepResults {
+    /// Every cell (speed x load).
+    pub cells: Vec<Cell>,
+    /// Energy-optimal speed per load.
+    pub optima: Vec<Optimum>,
+    /// Cells on the energy / cycle-time Pareto front of their load (indices into `cells`).
+    pub pareto: Vec<usize>,
+}
+
+impl Results {
+    /// The results of `outcome`; `settings` describe the run, `total_wall_s` its wall time.
+    pub fn new(outcome: &Outcome, settings: Settings, total_wall_s: f64) -> Results {
+        Results {
+            schema_version: SCHEMA_VERSION,
+            program: Program::current(),
+            settings,
+            table3: outcome
+                .steps
+                .rows
+                .iter()
+                .map(|r| Table3Row {
+                    step: r.step,
+                    joints: r.joints.clone(),
+                    design_cond_initial: r.design_cond_initial,
+                    design_cond_final: r.design_cond_final,
+                    identified: r.estimate.names.clone(),
+                    residual_rms_w: r.estimate.residual_rms,
+                    simulated_j: r.simulated_j,
+                    predicted_j: r.predicted_j,
+                    error_pct: r.error_pct,
+                })
+                .collect(),
+            estimators: outcome
+                .estimators
+                .iter()
+                .map(|e| Estimator {
+                    method: e.method.clone(),
+                    predicted_j: e.predicted_j.clone(),
+                    error_pct: e.error_pct.clone(),
+                    max_abs_error_pct: e.max_abs_error_pct,
+                    consistency: e.consistency.clone(),
+                    table2: e.parameters.clone(),
+                })
+                .collect(),
+            best_estimator: outcome.estimators[outcome.best].method.clone(),
+            table4: outcome.cases.rows.clone(),
+            sweep: SweepResults {
+                cells: outcome.sweep.cells.clone(),
+                optima: outcome.sweep.optima.clone(),
+                pareto: outcome.sweep.pareto.clone(),
+            },
+            timings: outcome.timings.clone(),
+            total_wall_s,
+        }
+    }
+}

@@ -1,0 +1,283 @@
+//! Figure 14: the pick-and-place task over a speed x load grid on the twin, against the
+//! energy an identified model predicts from the plan alone; the energy-optimal speed per load
+//! and the energy / cycle-time trade-off.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::identification::model::PowerModel;
+use crate::model::Robot;
+use crate::trajectory::linear_move::SlowedSegment;
+use crate::trajectory::task::{Scenario, TaskRun};
+use crate::validation::rig::{Progress, Rig};
+
+/// Speeds of the model's fine search for the optimum per load: this many log-spaced speeds
+/// over the grid's range.
+const FINE_SPEEDS: usize = 25;
+
+/// One cell of the grid.
+#[derive(Debug, Clone, Serialize)]
+pub struct Cell {
+    /// Commanded TCP speed, m/s.
+    pub speed_m_s: f64,
+    /// Load level L, kg (load 1 = L/2, the heavier load = L).
+    pub load_kg: f64,
+    /// Duration of the whole path, s.
+    pub cycle_time_s: f64,
+    /// Motor energy of the twin (regenerated energy counted negative), J.
+    #[serde(rename = "simulated_J")]
+    pub simulated_j: f64,
+    /// Grid-side energy of the twin (`max(P, 0)`), J.
+    #[serde(rename = "simulated_grid_J")]
+    pub simulated_grid_j: f64,
+    /// Motor energy the model predicts from the plan and the known payloads, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Grid-side energy the model predicts, J.
+    #[serde(rename = "predicted_grid_J")]
+    pub predicted_grid_j: f64,
+    /// `100 (predicted - simulated) / simulated`, motor energy, %.
+    pub error_pct: f64,
+    /// Segments the planner slowed down to respect joint limits.
+    pub slowed: Vec<SlowedSegment>,
+}
+
+/// The energy-optimal speed of one load level.
+#[derive(Debug, Clone, Serialize)]
+pub struct Optimum {
+    /// Load level, kg.
+    pub load_kg: f64,
+    /// Speed of the grid cell with the least simulated energy, m/s.
+    pub simulated_cell_m_s: f64,
+    /// Minimum of a parabola in log speed through that cell and its neighbours, m/s
+    /// (the cell's speed when it is at the edge of the grid).
+    pub simulated_interpolated_m_s: f64,
+    /// Speed of least predicted energy over a fine log-spaced search with the model, m/s.
+    pub predicted_m_s: f64,
+    /// Predicted energy there, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Whether the simulated optimum lies strictly inside the speed range.
+    pub interior: bool,
+}
+
+/// Outcome of the sweep.
+pub struct Sweep {
+    /// Cells, load-major in the scenario's order.
+    pub cells: Vec<Cell>,
+    /// Optimum per load.
+    pub optima: Vec<Optimum>,
+    /// Indices into `cells` of the cells no other cell of the same load beats in both energy
+    /// and cycle time (the Pareto front per load, by cycle time).
+    pub pareto: Vec<usize>,
+    /// The twin's dataset of each cell.
+    pub datasets: Vec<Dataset>,
+    /// Each cell's plan.
+    pub plans: Vec<TaskRun>,
+}
+
+/// One cell of the grid, planned.
+pub struct Planned {
+    /// Commanded TCP speed, m/s.
+    pub speed: f64,
+    /// Load level, kg.
+    pub load: f64,
+    /// The plan.
+    pub plan: TaskRun,
+}
+
+/// Plan every cell of the scenario's grid (in parallel; load-major), so that an unreachable
+/// via point or a speed the joints cannot follow is reported before anything runs.
+pub fn plan(robot: &Robot, scenario: &Scenario) -> Result<Vec<Planned>> {
+    let (speeds, loads) = (&scenario.sweep.speeds_m_s, &scenario.sweep.loads_kg);
+    if speeds.is_empty() || loads.is_empty() {
+        return Err(Error::InvalidInput(
+            "the sweep needs at least one speed and one load".into(),
+        ));
+    }
+    let grid: Vec<(f64, f64)> = loads
+        .iter()
+        .flat_map(|&l| speeds.iter().map(move |&v| (v, l)))
+        .collect();
+    grid.par_iter()
+        .map(|&(speed, load)| {
+            let plan = scenario.plan(robot, speed, load).map_err(|e| {
+                e.context(&format!(
+                    "scenario '{}' at {speed} m/s with load {load} kg",
+                    scenario.name
+                ))
+            })?;
+            Ok(Planned { speed, load, plan })
+        })
+        .collect()
+}
+
+/// Run the planned cells on `rig` in parallel and predict every cell with `model`
+/// (identified without payload; the tool and loads are added from their known mass
+/// properties, with the drives' nominal `efficiency` for an efficiency-scaled model).
+pub fn run(
+    rig: &Rig,
+    scenario: &Scenario,
+    plans: Vec<Planned>,
+    model: &PowerModel,
+    efficiency: f64,
+    progress: &dyn Progress,
+) -> Result<Sweep> {
+    let robot = rig.robot;
+    progress.stage("Figure 14: speed x load sweep", plans.len());
+    let dt = rig.twin.physics.dt;
+    let out: Vec<(Cell, Dataset, TaskRun)> = plans
+        .into_par_iter()
+        .enumerate()
+        .map(|(k, Planned { speed, load, plan })| {
+            let description = serde_json::json!({
+                "kind": "pick and place",
+                "scenario": scenario.name,
+                "speed_m_s": speed,
+                "load_kg": load,
+            });
+            let ds = rig.run(
+                &plan.motion.trajectory,
+                &plan.events,
+                200 + k as u64,
+                description,
+            )?;
+            let pred = model.energy_with_payloads(
+                robot,
+                &plan.motion.trajectory,
+                &plan.events,
+                efficiency,
+                dt,
+            )?;
+            let sim = &ds.meta.summary;
+            progress.advance();
+            Ok((
+                Cell {
+                    speed_m_s: speed,
+                    load_kg: load,
+                    cycle_time_s: plan.motion.duration_s,
+                    simulated_j: sim.energy_total_j,
+                    simulated_grid_j: sim.energy_grid_j,
+                    predicted_j: pred.motor_j,
+                    predicted_grid_j: pred.grid_j,
+                    error_pct: 100.0 * (pred.motor_j - sim.energy_total_j) / sim.energy_total_j,
+                    slowed: plan.motion.slowed.clone(),
+                },
+                ds,
+                plan,
+            ))
+        })
+        .collect::<Result<_>>()?;
+    let mut cells = Vec::with_capacity(out.len());
+    let mut datasets = Vec::with_capacity(out.len());
+    let mut plans = Vec::with_capacity(out.len());
+    for (c, d, p) in out {
+        cells.push(c);
+        datasets.push(d);
+        plans.push(p);
+    }
+    let mut loads: Vec<f64> = Vec::new();
+    for c in &cells {
+        if !loads.contains(&c.load_kg) {
+            loads.push(c.load_kg);
+        }
+    }
+    let optima = loads
+        .iter()
+        .map(|&load| optimum(rig, scenario, model, efficiency, &cells, load))
+        .collect::<Result<_>>()?;
+    let pareto = pareto_front(&cells);
+    Ok(Sweep {
+        cells,
+        optima,
+        pareto,
+        datasets,
+        plans,
+    })
+}
+
+/// The optimum of one load level.
+fn optimum(
+    rig: &Rig,
+    scenario: &Scenario,
+    model: &PowerModel,
+    efficiency: f64,
+    cells: &[Cell],
+    load: f64,
+) -> Result<Optimum> {
+    let mut row: Vec<&Cell> = cells.iter().filter(|c| c.load_kg == load).collect();
+    row.sort_by(|a, b| a.speed_m_s.total_cmp(&b.speed_m_s));
+    let best = (0..row.len())
+        .min_by(|&a, &b| row[a].simulated_j.total_cmp(&row[b].simulated_j))
+        .ok_or_else(|| Error::InvalidInput(format!("no cell with load {load} kg")))?;
+    let interior = best > 0 && best + 1 < row.len();
+    let simulated_interpolated_m_s = if interior {
+        let x: Vec<f64> = (best - 1..=best + 1)
+            .map(|k| row[k].speed_m_s.ln())
+            .collect();
+        let y: Vec<f64> = (best - 1..=best + 1).map(|k| row[k].simulated_j).collect();
+        parabola_min(&x, &y).exp()
+    } else {
+        row[best].speed_m_s
+    };
+    let (lo, hi) = (row[0].speed_m_s, row[row.len() - 1].speed_m_s);
+    let fine: Vec<f64> = (0..FINE_SPEEDS)
+        .map(|k| (lo.ln() + (hi / lo).ln() * k as f64 / (FINE_SPEEDS - 1).max(1) as f64).exp())
+        .collect();
+    let energies: Vec<f64> = fine
+        .par_iter()
+        .map(|&v| {
+            let plan = scenario.plan(rig.robot, v, load)?;
+            Ok(model
+                .energy_with_payloads(
+                    rig.robot,
+                    &plan.motion.trajectory,
+                    &plan.events,
+                    efficiency,
+                    rig.twin.physics.dt,
+                )?
+                .motor_j)
+        })
+        .collect::<Result<_>>()?;
+    let k = (0..fine.len())
+        .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
+        .unwrap_or(0);
+    Ok(Optimum {
+        load_kg: load,
+        simulated_cell_m_s: row[best].speed_m_s,
+        simulated_interpolated_m_s,
+        predicted_m_s: fine[k],
+        predicted_j: energies[k],
+        interior,
+    })
+}
+
+/// The abscissa of the vertex of the parabola through three points (the middle one's when
+/// they are collinear or the vertex falls outside them).
+fn parabola_min(x: &[f64], y: &[f64]) -> f64 {
+    let (d1, d2) = (x[1] - x[0], x[2] - x[1]);
+    let (s1, s2) = ((y[1] - y[0]) / d1, (y[2] - y[1]) / d2);
+    let curvature = (s2 - s1) / (x[2] - x[0]);
+    if curvature <= 0.0 {
+        return x[1];
+    }
+    let vertex = 0.5 * (x[0] + x[1]) - s1 / (2.0 * curvature);
+    vertex.clamp(x[0], x[2])
+}
+
+/// Indices of the cells on the per-load Pareto front of (cycle time, simulated energy).
+fn pareto_front(cells: &[Cell]) -> Vec<usize> {
+    (0..cells.len())
+        .filter(|&i| {
+            let c = &cells[i];
+            !cells.iter().any(|o| {
+                o.load_kg == c.load_kg
+                    && o.cycle_time_s <= c.cycle_time_s
+                    && o.simulated_j <= c.simulated_j
+                    && (o.cycle_time_s < c.cycle_time_s || o.simulated_j < c.simulated_j)
+            })
+        })
+        .collect()
+}
