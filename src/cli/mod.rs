@@ -24,17 +24,19 @@ mod dynamics;
 mod excite;
 mod identify;
 mod model;
+mod progress;
 mod reproduce;
 mod simulate;
+mod sweep;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
 use powertwin::Robot;
-use powertwin::dataset::Format;
 use powertwin::dataset::meta::Urdf;
+use powertwin::dataset::{Dataset, Format};
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
@@ -43,6 +45,8 @@ use powertwin::twin::TwinConfig;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::validation::sweep::Cell;
+use rayon::prelude::*;
 
 /// Energy digital twin of an industrial robot: identify dynamic and drive parameters from
 /// motor power and predict the energy of a task (Liu et al. 2018).
@@ -75,6 +79,9 @@ enum Command {
     Predict(identify::PredictArgs),
     /// Run the Rapier twin along a trajectory and write a ground-truth dataset.
     Simulate(simulate::SimulateArgs),
+    /// Run a task scenario (default: the paper's pick and place) over speeds and loads on the
+    /// twin, with the energy an identified model predicts.
+    Sweep(sweep::SweepArgs),
     /// Generate many randomised ground-truth datasets in parallel (shardable).
     Dataset(dataset::DatasetArgs),
 }
@@ -260,6 +267,24 @@ pub fn emit(text: &str) -> Result<()> {
     }
 }
 
+/// Write datasets `(name, dataset)` under `dir` in parallel (each atomically).
+pub fn write_all(items: &[(String, &Dataset)], dir: &Path, format: Format) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    items
+        .par_iter()
+        .map(|(name, ds)| {
+            let path = dir.join(name);
+            ds.write(&path, format)
+                .with_context(|| format!("writing {}", path.display()))
+        })
+        .collect()
+}
+
+/// Directory name of a sweep cell's dataset.
+pub fn sweep_name(cell: &Cell) -> String {
+    format!("sweep_{}mps_{}kg", cell.speed_m_s, cell.load_kg)
+}
+
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
@@ -271,6 +296,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Identify(a) => identify::run_identify(&a),
         Command::Predict(a) => identify::run_predict(&a),
         Command::Simulate(a) => simulate::run(&a),
+        Command::Sweep(a) => sweep::run(&a),
         Command::Dataset(a) => dataset::run(&a),
     }
 }

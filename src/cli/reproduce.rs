@@ -2,12 +2,10 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use powertwin::dataset::Format;
 use powertwin::dataset::meta::Urdf;
 use powertwin::model::builtin;
@@ -23,10 +21,10 @@ use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
 use powertwin::validation::reproduce::{Outcome, Plan, run as run_plan};
-use powertwin::validation::rig::{Progress, Rig};
-use rayon::prelude::*;
+use powertwin::validation::rig::Rig;
 
-use crate::cli::emit;
+use crate::cli::progress::Bars;
+use crate::cli::{emit, sweep_name, write_all};
 
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);
@@ -65,42 +63,6 @@ pub struct ReproduceArgs {
     /// Table format of the datasets.
     #[arg(long, default_value = "parquet")]
     format: Format,
-}
-
-/// One progress bar per stage.
-struct Bars(Mutex<Option<ProgressBar>>);
-
-impl Progress for Bars {
-    fn stage(&self, name: &str, items: usize) {
-        let bar = ProgressBar::new(items as u64).with_style(
-            ProgressStyle::with_template("{elapsed:>4} [{bar:30}] {pos}/{len} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        );
-        bar.set_message(name.to_string());
-        if let Ok(mut slot) = self.0.lock()
-            && let Some(old) = slot.replace(bar)
-        {
-            old.finish();
-        }
-    }
-
-    fn advance(&self) {
-        if let Ok(slot) = self.0.lock()
-            && let Some(bar) = slot.as_ref()
-        {
-            bar.inc(1);
-        }
-    }
-}
-
-impl Bars {
-    fn finish(&self) {
-        if let Ok(mut slot) = self.0.lock()
-            && let Some(bar) = slot.take()
-        {
-            bar.finish();
-        }
-    }
 }
 
 /// Run everything and write the report.
@@ -147,7 +109,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
 
-    let bars = Bars(Mutex::new(None));
+    let bars = Bars::new();
     let outcome = run_plan(&rig, &plan, &bars)?;
     bars.finish();
 
@@ -190,7 +152,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Every twin dataset, in parallel.
+/// Every twin dataset, named by experiment.
 fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
     let mut all = Vec::new();
     for (k, ds) in outcome.steps.datasets.iter().enumerate() {
@@ -200,19 +162,9 @@ fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
         all.push((format!("table4_{}", slug(&row.case)), ds));
     }
     for (cell, ds) in outcome.sweep.cells.iter().zip(&outcome.sweep.datasets) {
-        all.push((
-            format!("sweep_{}mps_{}kg", cell.speed_m_s, cell.load_kg),
-            ds,
-        ));
+        all.push((sweep_name(cell), ds));
     }
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    all.par_iter()
-        .map(|(name, ds)| {
-            let path = dir.join(name);
-            ds.write(&path, format)
-                .with_context(|| format!("writing {}", path.display()))
-        })
-        .collect()
+    write_all(&all, dir, format)
 }
 
 /// A file-name-safe version of a case name.
@@ -273,7 +225,8 @@ fn summary(r: &Results, out: &Path) -> String {
         .sweep
         .cells
         .iter()
-        .fold(0.0_f64, |m, c| m.max(c.error_pct.abs()));
+        .filter_map(|c| c.error_pct)
+        .fold(0.0_f64, |m, e| m.max(e.abs()));
     outln!(
         o,
         "Sweep: {} cells, worst energy error {:.3} %",
@@ -291,7 +244,7 @@ fn summary(r: &Results, out: &Path) -> String {
             } else {
                 ", at the edge"
             },
-            opt.predicted_m_s
+            opt.predicted_m_s.unwrap_or(f64::NAN)
         );
     }
     outln!(

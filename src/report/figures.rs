@@ -62,18 +62,23 @@ fn energy_vs_speed(outcome: &Outcome) -> Figure {
             .with_series(
                 Series::new(
                     format!("model, load {load} kg"),
-                    cells.iter().map(|c| (c.speed_m_s, c.predicted_j)).collect(),
+                    cells
+                        .iter()
+                        .filter_map(|c| c.predicted_j.map(|e| (c.speed_m_s, e)))
+                        .collect(),
                     Style::Line,
                 )
                 .dashed(),
             );
     }
     for o in &outcome.sweep.optima {
-        chart = chart.with_annotation(Annotation::Point {
-            x: o.predicted_m_s,
-            y: o.predicted_j,
-            label: format!("{:.2} m/s", o.predicted_m_s),
-        });
+        if let (Some(x), Some(y)) = (o.predicted_m_s, o.predicted_j) {
+            chart = chart.with_annotation(Annotation::Point {
+                x,
+                y,
+                label: format!("{x:.2} m/s"),
+            });
+        }
     }
     Figure {
         stem: "energy_vs_speed".into(),
@@ -108,7 +113,8 @@ fn error_per_cell(outcome: &Outcome) -> Figure {
                     .cells
                     .iter()
                     .find(|c| c.load_kg == load && c.speed_m_s == v)
-                    .map_or(0.0, |c| c.error_pct)
+                    .and_then(|c| c.error_pct)
+                    .unwrap_or(0.0)
             })
             .collect();
         chart = chart.with_series(Series::bars(format!("load {load} kg"), &values));

@@ -150,8 +150,8 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 p.name,
                 p.identified,
                 p.truth,
-                p.error_pct.map_or("-".into(), |x| format!("{x:+.3}")),
-                p.rel_std_pct.map_or("-".into(), |x| format!("{x:.3}"))
+                opt(p.error_pct, |x| format!("{x:+.3}")),
+                opt(p.rel_std_pct, |x| format!("{x:.3}"))
             );
         }
     }
@@ -200,14 +200,14 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     for c in &r.sweep.cells {
         let _ = writeln!(
             w,
-            "| {} | {} | {:.2} | {:.1} | {:.1} | {:.1} | {:+.3} | {} |",
+            "| {} | {} | {:.2} | {:.1} | {:.1} | {} | {} | {} |",
             c.speed_m_s,
             c.load_kg,
             c.cycle_time_s,
             c.simulated_j,
             c.simulated_grid_j,
-            c.predicted_j,
-            c.error_pct,
+            opt(c.predicted_j, |x| format!("{x:.1}")),
+            opt(c.error_pct, |x| format!("{x:+.3}")),
             c.slowed.len()
         );
     }
@@ -219,12 +219,12 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     for o in &r.sweep.optima {
         let _ = writeln!(
             w,
-            "| {} | {} | {:.3} | {:.3} | {:.1} | {} |",
+            "| {} | {} | {:.3} | {} | {} | {} |",
             o.load_kg,
             o.simulated_cell_m_s,
             o.simulated_interpolated_m_s,
-            o.predicted_m_s,
-            o.predicted_j,
+            opt(o.predicted_m_s, |x| format!("{x:.3}")),
+            opt(o.predicted_j, |x| format!("{x:.1}")),
             if o.interior { "yes" } else { "no" }
         );
     }
@@ -258,6 +258,11 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     }
     let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
     s
+}
+
+/// A formatted optional value, `-` when absent.
+fn opt(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    v.map_or("-".into(), f)
 }
 
 fn join(v: &[usize]) -> String {

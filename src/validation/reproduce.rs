@@ -140,8 +140,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         rig,
         &plan.scenario,
         planned,
-        &estimators[best].model,
-        efficiency,
+        Some((&estimators[best].model, efficiency)),
         progress,
     )?;
     lap("pick-and-place sweep (Figure 14)");

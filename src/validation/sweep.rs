@@ -32,14 +32,15 @@ pub struct Cell {
     /// Grid-side energy of the twin (`max(P, 0)`), J.
     #[serde(rename = "simulated_grid_J")]
     pub simulated_grid_j: f64,
-    /// Motor energy the model predicts from the plan and the known payloads, J.
+    /// Motor energy the model predicts from the plan and the known payloads, J (`null`
+    /// without a model).
     #[serde(rename = "predicted_J")]
-    pub predicted_j: f64,
+    pub predicted_j: Option<f64>,
     /// Grid-side energy the model predicts, J.
     #[serde(rename = "predicted_grid_J")]
-    pub predicted_grid_j: f64,
+    pub predicted_grid_j: Option<f64>,
     /// `100 (predicted - simulated) / simulated`, motor energy, %.
-    pub error_pct: f64,
+    pub error_pct: Option<f64>,
     /// Segments the planner slowed down to respect joint limits.
     pub slowed: Vec<SlowedSegment>,
 }
@@ -54,11 +55,12 @@ pub struct Optimum {
     /// Minimum of a parabola in log speed through that cell and its neighbours, m/s
     /// (the cell's speed when it is at the edge of the grid).
     pub simulated_interpolated_m_s: f64,
-    /// Speed of least predicted energy over a fine log-spaced search with the model, m/s.
-    pub predicted_m_s: f64,
+    /// Speed of least predicted energy over a fine log-spaced search with the model, m/s
+    /// (`null` without a model).
+    pub predicted_m_s: Option<f64>,
     /// Predicted energy there, J.
     #[serde(rename = "predicted_J")]
-    pub predicted_j: f64,
+    pub predicted_j: Option<f64>,
     /// Whether the simulated optimum lies strictly inside the speed range.
     pub interior: bool,
 }
@@ -114,15 +116,17 @@ pub fn plan(robot: &Robot, scenario: &Scenario) -> Result<Vec<Planned>> {
         .collect()
 }
 
-/// Run the planned cells on `rig` in parallel and predict every cell with `model`
-/// (identified without payload; the tool and loads are added from their known mass
-/// properties, with the drives' nominal `efficiency` for an efficiency-scaled model).
+/// A model to predict with: identified without payload; the tool and loads are added from
+/// their known mass properties, with the drives' nominal efficiency (the second field) for an
+/// efficiency-scaled model.
+pub type Predictor<'a> = (&'a PowerModel, f64);
+
+/// Run the planned cells on `rig` in parallel, and predict every cell when a model is given.
 pub fn run(
     rig: &Rig,
     scenario: &Scenario,
     plans: Vec<Planned>,
-    model: &PowerModel,
-    efficiency: f64,
+    predictor: Option<Predictor>,
     progress: &dyn Progress,
 ) -> Result<Sweep> {
     let robot = rig.robot;
@@ -144,13 +148,17 @@ pub fn run(
                 200 + k as u64,
                 description,
             )?;
-            let pred = model.energy_with_payloads(
-                robot,
-                &plan.motion.trajectory,
-                &plan.events,
-                efficiency,
-                dt,
-            )?;
+            let pred = predictor
+                .map(|(model, efficiency)| {
+                    model.energy_with_payloads(
+                        robot,
+                        &plan.motion.trajectory,
+                        &plan.events,
+                        efficiency,
+                        dt,
+                    )
+                })
+                .transpose()?;
             let sim = &ds.meta.summary;
             progress.advance();
             Ok((
@@ -160,9 +168,10 @@ pub fn run(
                     cycle_time_s: plan.motion.duration_s,
                     simulated_j: sim.energy_total_j,
                     simulated_grid_j: sim.energy_grid_j,
-                    predicted_j: pred.motor_j,
-                    predicted_grid_j: pred.grid_j,
-                    error_pct: 100.0 * (pred.motor_j - sim.energy_total_j) / sim.energy_total_j,
+                    predicted_j: pred.map(|p| p.motor_j),
+                    predicted_grid_j: pred.map(|p| p.grid_j),
+                    error_pct: pred
+                        .map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
                     slowed: plan.motion.slowed.clone(),
                 },
                 ds,
@@ -186,7 +195,7 @@ pub fn run(
     }
     let optima = loads
         .iter()
-        .map(|&load| optimum(rig, scenario, model, efficiency, &cells, load))
+        .map(|&load| optimum(rig, scenario, predictor, &cells, load))
         .collect::<Result<_>>()?;
     let pareto = pareto_front(&cells);
     Ok(Sweep {
@@ -202,8 +211,7 @@ pub fn run(
 fn optimum(
     rig: &Rig,
     scenario: &Scenario,
-    model: &PowerModel,
-    efficiency: f64,
+    predictor: Option<Predictor>,
     cells: &[Cell],
     load: f64,
 ) -> Result<Optimum> {
@@ -222,7 +230,40 @@ fn optimum(
     } else {
         row[best].speed_m_s
     };
-    let (lo, hi) = (row[0].speed_m_s, row[row.len() - 1].speed_m_s);
+    let (predicted_m_s, predicted_j) = match predictor {
+        Some(p) => {
+            let (v, e) = fine_search(
+                rig,
+                scenario,
+                p,
+                row[0].speed_m_s,
+                row[row.len() - 1].speed_m_s,
+                load,
+            )?;
+            (Some(v), Some(e))
+        }
+        None => (None, None),
+    };
+    Ok(Optimum {
+        load_kg: load,
+        simulated_cell_m_s: row[best].speed_m_s,
+        simulated_interpolated_m_s,
+        predicted_m_s,
+        predicted_j,
+        interior,
+    })
+}
+
+/// The speed (m/s) of least predicted energy (J) for `load` over log-spaced speeds in
+/// `[lo, hi]`, and that energy.
+fn fine_search(
+    rig: &Rig,
+    scenario: &Scenario,
+    (model, efficiency): Predictor,
+    lo: f64,
+    hi: f64,
+    load: f64,
+) -> Result<(f64, f64)> {
     let fine: Vec<f64> = (0..FINE_SPEEDS)
         .map(|k| (lo.ln() + (hi / lo).ln() * k as f64 / (FINE_SPEEDS - 1).max(1) as f64).exp())
         .collect();
@@ -244,14 +285,7 @@ fn optimum(
     let k = (0..fine.len())
         .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
         .unwrap_or(0);
-    Ok(Optimum {
-        load_kg: load,
-        simulated_cell_m_s: row[best].speed_m_s,
-        simulated_interpolated_m_s,
-        predicted_m_s: fine[k],
-        predicted_j: energies[k],
-        interior,
-    })
+    Ok((fine[k], energies[k]))
 }
 
 /// The abscissa of the vertex of the parabola through three points (the middle one's when
