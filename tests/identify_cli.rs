@@ -55,6 +55,13 @@ fn identified_model_predicts_the_twins_energy() {
             &s(&model),
         ]);
         assert_eq!(code, 0, "{method}: {err}");
+        assert!(err.contains("physical consistency"), "{err}");
+        let written: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+        assert!(
+            written["consistency"]["consistent"].is_boolean(),
+            "{written}"
+        );
         let (code, out, err) = powertwin(&[
             "predict",
             "--model",

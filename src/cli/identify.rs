@@ -17,6 +17,7 @@ use powertwin::identification::pmsm;
 use powertwin::identification::states::States;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
+use powertwin::validation::params::consistency;
 use serde_json::json;
 
 use super::RobotArgs;
@@ -197,8 +198,14 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
                 .collect()
         }
     };
-    let out =
-        json!({"method": format!("{:?}", args.method), "model": model, "estimates": estimates});
+    // Positive definiteness does not depend on the 1/eta scale: check in model units.
+    let consistency = consistency(&robot, &model, 1.0, 200, 1)?;
+    let out = json!({
+        "method": format!("{:?}", args.method),
+        "model": model,
+        "estimates": estimates,
+        "consistency": consistency,
+    });
     write_atomic(&args.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))?;
     if let Some(e) = estimates.last() {
@@ -212,6 +219,21 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             args.out.display()
         );
     }
+    eprintln!(
+        "physical consistency: {} (mass matrix at 200 random poses: smallest eigenvalue {:.4} kg m^2{}; negative friction or rotor inertia: {})",
+        if consistency.consistent { "yes" } else { "NO" },
+        consistency.min_eigenvalue,
+        if model.efficiency_scaled {
+            " / eta"
+        } else {
+            ""
+        },
+        if consistency.negative_drive_terms.is_empty() {
+            "none".to_string()
+        } else {
+            consistency.negative_drive_terms.join(", ")
+        }
+    );
     Ok(ExitCode::SUCCESS)
 }
 
