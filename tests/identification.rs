@@ -280,3 +280,48 @@ fn window_energy_estimator_recovers_a_known_model_exactly() {
         .is_err()
     );
 }
+
+#[test]
+fn slow_samples_are_dropped_from_states_and_powers_alike() {
+    use powertwin::identification::data::Prepared;
+    use powertwin::identification::states::from_fourier;
+    let robot = common::irb1200();
+    let traj = random_fourier(
+        &robot,
+        &mut common::rng(11),
+        &RandomFourierOptions::default(),
+    )
+    .unwrap();
+    let t: Vec<f64> = (0..101).map(|k| k as f64 * 0.1).collect();
+    let states = from_fourier(&traj, &t);
+    let n = robot.dof();
+    let p_total: Vec<f64> = (0..t.len()).map(|m| m as f64).collect();
+    let p_joint: Vec<f64> = (0..t.len() * n).map(|k| k as f64).collect();
+    let mut p = Prepared {
+        states: states.clone(),
+        motion: Box::new(traj),
+        p_total,
+        p_joint,
+        excited: vec![1, 4],
+        power_averaged: false,
+    };
+    let min = 0.05;
+    let dropped = p.drop_slow_samples(min).unwrap();
+    // Rest-to-rest: at least the first and last samples go.
+    assert!(dropped >= 2 && dropped < t.len() / 2, "{dropped}");
+    assert_eq!(p.states.len(), t.len() - dropped);
+    assert_eq!(p.p_total.len(), p.states.len());
+    assert_eq!(p.p_joint.len(), p.states.len() * n);
+    for (j, &tj) in p.states.t.iter().enumerate() {
+        let m = t.iter().position(|&x| x == tj).unwrap();
+        assert_eq!(p.p_total[j], m as f64);
+        assert_eq!(p.p_joint[j * n + 3], (m * n + 3) as f64);
+        assert_eq!(p.states.dq[4][j], states.dq[4][m]);
+        assert!(p.states.dq[1][j].abs() >= min && p.states.dq[4][j].abs() >= min);
+    }
+    assert_eq!(p.drop_slow_samples(0.0).unwrap(), 0);
+    assert!(p.drop_slow_samples(-1.0).is_err());
+    assert!(p.drop_slow_samples(f64::NAN).is_err());
+    let err = p.drop_slow_samples(1e6).unwrap_err();
+    assert!(err.to_string().contains("no sample"), "{err}");
+}

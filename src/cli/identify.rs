@@ -79,6 +79,10 @@ pub struct IdentifyArgs {
     method: Method,
     #[command(flatten)]
     route: RouteArgs,
+    /// Drop samples at which an excited joint moves slower than this, rad/s (around velocity
+    /// reversals the Coulomb sign is uncertain and stiction holds the joint). 0 keeps all.
+    #[arg(long, default_value_t = 0.0, value_name = "RAD_S")]
+    min_speed: f64,
     /// Output model file (JSON: base parameters, losses, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -122,11 +126,26 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         }
         datasets.push(ds);
     }
+    if args.min_speed > 0.0 && args.method == Method::Energy {
+        bail!(
+            "--min-speed does not apply to the energy method (its windows join consecutive samples)"
+        );
+    }
     let prepared: Vec<Prepared> = datasets
         .iter()
         .zip(&args.data)
         .map(|(ds, d)| {
-            prepare(ds, args.route.route()).with_context(|| format!("preparing {}", d.display()))
+            let mut p = prepare(ds, args.route.route())
+                .with_context(|| format!("preparing {}", d.display()))?;
+            if args.min_speed > 0.0 {
+                let dropped = p.drop_slow_samples(args.min_speed)?;
+                eprintln!(
+                    "{}: {dropped} samples with an excited joint below {} rad/s dropped",
+                    d.display(),
+                    args.min_speed
+                );
+            }
+            Ok(p)
         })
         .collect::<Result<_>>()?;
     let layout = ParamLayout::new(&robot, true, true);

@@ -9,6 +9,11 @@ use crate::identification::states::{States, from_fourier, from_smoothing};
 use crate::trajectory::Trajectory;
 use crate::trajectory::sampled::Sampled;
 
+/// Range of logged position (rad) above which a joint counts as excited: well above the
+/// tracking error of a joint held still while the others move (below 1e-3 rad on the twin),
+/// well below any excitation's amplitude.
+pub const EXCITED_RANGE: f64 = 0.01;
+
 /// How positions become velocities and accelerations.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Route {
@@ -38,10 +43,55 @@ pub struct Prepared {
     pub p_total: Vec<f64>,
     /// Per-motor power, sample-major `[m * n + i]`, W.
     pub p_joint: Vec<f64>,
-    /// Joints that move (range of the logged position above 1 mrad), 0-based.
+    /// Joints that move (range of the logged position above [`EXCITED_RANGE`]), 0-based.
     pub excited: Vec<usize>,
     /// Whether the logger averaged power over each sample period.
     pub power_averaged: bool,
+}
+
+impl Prepared {
+    /// Drop the samples at which an excited joint moves slower than `min_speed` (rad/s):
+    /// around velocity reversals the sign of the Coulomb term is uncertain and the twin's
+    /// stiction holds the joint, so those samples bias the friction estimates. Returns how many
+    /// were dropped. Only for estimators that use samples one by one (not energy windows,
+    /// which need consecutive samples).
+    ///
+    /// Errors: a negative or non-finite `min_speed`, or nothing left.
+    pub fn drop_slow_samples(&mut self, min_speed: f64) -> Result<usize> {
+        if !(min_speed.is_finite() && min_speed >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "minimum speed {min_speed} rad/s must be finite and >= 0"
+            )));
+        }
+        let n = self.states.q.len();
+        let keep: Vec<usize> = (0..self.states.len())
+            .filter(|&m| {
+                self.excited
+                    .iter()
+                    .all(|&i| self.states.dq[i][m].abs() >= min_speed)
+            })
+            .collect();
+        if keep.is_empty() {
+            return Err(Error::InvalidInput(format!(
+                "no sample has every excited joint moving at >= {min_speed} rad/s"
+            )));
+        }
+        let dropped = self.states.len() - keep.len();
+        let pick = |v: &[f64]| keep.iter().map(|&m| v[m]).collect::<Vec<f64>>();
+        self.states.t = pick(&self.states.t);
+        for i in 0..n {
+            self.states.q[i] = pick(&self.states.q[i]);
+            self.states.dq[i] = pick(&self.states.dq[i]);
+            self.states.ddq[i] = pick(&self.states.ddq[i]);
+        }
+        self.p_total = pick(&self.p_total);
+        self.p_joint = keep
+            .iter()
+            .flat_map(|&m| (0..n).map(move |i| m * n + i))
+            .map(|k| self.p_joint[k])
+            .collect();
+        Ok(dropped)
+    }
 }
 
 /// Prepare the measured stream of `ds` along `route`.
@@ -77,7 +127,7 @@ pub fn prepare(ds: &Dataset, route: Route) -> Result<Prepared> {
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                     (a.min(*v), b.max(*v))
                 });
-            hi - lo > 1e-3
+            hi - lo > EXCITED_RANGE
         })
         .collect();
     if excited.is_empty() {
