@@ -177,26 +177,11 @@ fn step_trace(robot: &Robot, outcome: &Outcome) -> Result<Option<Figure>> {
     let best = &outcome.estimators[outcome.best];
     let t = &ds.measured.t;
     let predicted = best.model.power_with_payloads(robot, traj, &[], 1.0, t)?;
-    let chart = Chart::new(
-        "Identification step 6: total motor power",
-        "Time (s)",
-        "Total motor power (W)",
-    )
-    .with_series(Series::new(
-        "twin (logged)",
-        t.iter()
-            .copied()
-            .zip(ds.measured.p_total.iter().copied())
-            .collect(),
-        Style::Line,
-    ))
-    .with_series(
-        Series::new(
-            format!("{} model", best.method),
-            t.iter().copied().zip(predicted).collect(),
-            Style::Line,
-        )
-        .dashed(),
+    let chart = power_chart(
+        "Identification step 6: total motor power".into(),
+        t,
+        ("twin (logged)", &ds.measured.p_total),
+        (&best.method, &predicted),
     );
     Ok(Some(Figure {
         stem: "power_step6".into(),
@@ -233,26 +218,14 @@ fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Opti
         efficiency,
         &t,
     )?;
-    let mut chart = Chart::new(
+    let mut chart = power_chart(
         format!(
             "Pick and place at {} m/s, load {} kg: total motor power",
             cell.speed_m_s, cell.load_kg
         ),
-        "Time (s)",
-        "Total motor power (W)",
-    )
-    .with_series(Series::new(
-        "twin",
-        t.iter().copied().zip(simulated).collect(),
-        Style::Line,
-    ))
-    .with_series(
-        Series::new(
-            format!("{} model", best.method),
-            t.iter().copied().zip(predicted).collect(),
-            Style::Line,
-        )
-        .dashed(),
+        &t,
+        ("twin", &simulated),
+        (&best.method, &predicted),
     );
     for v in &plan.via {
         chart = chart.with_annotation(Annotation::Point {
@@ -269,4 +242,25 @@ fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Opti
         ),
         chart,
     }))
+}
+
+/// Total power against time: the twin's (`simulated`: name and values) solid, the model's
+/// (`predicted`: method and values) dashed.
+fn power_chart(
+    title: String,
+    t: &[f64],
+    simulated: (&str, &[f64]),
+    predicted: (&str, &[f64]),
+) -> Chart {
+    let series = |v: &[f64]| t.iter().copied().zip(v.iter().copied()).collect();
+    Chart::new(title, "Time (s)", "Total motor power (W)")
+        .with_series(Series::new(simulated.0, series(simulated.1), Style::Line))
+        .with_series(
+            Series::new(
+                format!("{} model", predicted.0),
+                series(predicted.1),
+                Style::Line,
+            )
+            .dashed(),
+        )
 }
