@@ -117,10 +117,3 @@ fn bad_robot_files_are_clear_errors_not_panics() {
         "{err}"
     );
 }
-
-#[test]
-fn reproduce_says_what_is_missing_and_fails() {
-    let (code, _, err) = powertwin(&["reproduce"]);
-    assert_eq!(code, 2);
-    assert!(err.contains("not built yet"), "{err}");
-}
