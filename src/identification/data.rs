@@ -64,27 +64,15 @@ impl Prepared {
             )));
         }
         let n = self.states.q.len();
-        let keep: Vec<usize> = (0..self.states.len())
-            .filter(|&m| {
-                self.excited
-                    .iter()
-                    .all(|&i| self.states.dq[i][m].abs() >= min_speed)
-            })
-            .collect();
+        let keep = self.states.moving(&self.excited, min_speed);
         if keep.is_empty() {
             return Err(Error::InvalidInput(format!(
                 "no sample has every excited joint moving at >= {min_speed} rad/s"
             )));
         }
         let dropped = self.states.len() - keep.len();
-        let pick = |v: &[f64]| keep.iter().map(|&m| v[m]).collect::<Vec<f64>>();
-        self.states.t = pick(&self.states.t);
-        for i in 0..n {
-            self.states.q[i] = pick(&self.states.q[i]);
-            self.states.dq[i] = pick(&self.states.dq[i]);
-            self.states.ddq[i] = pick(&self.states.ddq[i]);
-        }
-        self.p_total = pick(&self.p_total);
+        self.states = self.states.select(&keep);
+        self.p_total = keep.iter().map(|&m| self.p_total[m]).collect();
         self.p_joint = keep
             .iter()
             .flat_map(|&m| (0..n).map(move |i| m * n + i))

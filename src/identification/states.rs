@@ -55,6 +55,25 @@ impl States {
         Ok(())
     }
 
+    /// Indices of the samples at which every joint of `joints` moves at `min_speed` (rad/s) or
+    /// faster.
+    pub fn moving(&self, joints: &[usize], min_speed: f64) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&m| joints.iter().all(|&i| self.dq[i][m].abs() >= min_speed))
+            .collect()
+    }
+
+    /// The samples `keep` (indices), in that order.
+    pub fn select(&self, keep: &[usize]) -> States {
+        let pick = |v: &[f64]| keep.iter().map(|&m| v[m]).collect::<Vec<f64>>();
+        States {
+            t: pick(&self.t),
+            q: self.q.iter().map(|v| pick(v)).collect(),
+            dq: self.dq.iter().map(|v| pick(v)).collect(),
+            ddq: self.ddq.iter().map(|v| pick(v)).collect(),
+        }
+    }
+
     /// Copy the state of sample `m` into the three slices.
     pub fn at(&self, m: usize, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
         for i in 0..self.q.len() {
