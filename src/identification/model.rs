@@ -121,17 +121,35 @@ impl PowerModel {
         payload: &Payload,
         efficiency: f64,
     ) -> Result<PowerModel> {
+        let base = self.base_params(robot)?;
+        self.with_payload_on(&base, robot, payload, efficiency)
+    }
+
+    /// The base-parameter set of `robot` this model is written in (an error if the model's
+    /// columns are not that set).
+    fn base_params(&self, robot: &Robot) -> Result<BaseParams> {
         self.check_robot(robot)?;
-        if !(efficiency > 0.0 && efficiency <= 1.0) {
-            return Err(Error::InvalidInput(format!(
-                "efficiency {efficiency} must be in (0, 1]"
-            )));
-        }
         let base = BaseParams::compute(robot, self.layout, &SamplingOptions::default())?;
         if base.independent() != self.columns.as_slice() {
             return Err(Error::InvalidInput(
                 "the model's base parameters are not those of this robot".into(),
             ));
+        }
+        Ok(base)
+    }
+
+    /// [`PowerModel::with_payload`] with the base-parameter set already computed.
+    fn with_payload_on(
+        &self,
+        base: &BaseParams,
+        robot: &Robot,
+        payload: &Payload,
+        efficiency: f64,
+    ) -> Result<PowerModel> {
+        if !(efficiency > 0.0 && efficiency <= 1.0) {
+            return Err(Error::InvalidInput(format!(
+                "efficiency {efficiency} must be in (0, 1]"
+            )));
         }
         let last = robot.dof() - 1;
         let before = robot.standard_params()[last];
@@ -196,11 +214,14 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<f64>> {
         self.check_robot(robot)?;
+        let base = (!events.is_empty())
+            .then(|| self.base_params(robot))
+            .transpose()?;
         let mut models = vec![(f64::NEG_INFINITY, self.clone())];
         for e in events {
-            let model = match &e.payload {
-                Some(p) => self.with_payload(robot, p, efficiency)?,
-                None => self.clone(),
+            let model = match (&e.payload, &base) {
+                (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
+                _ => self.clone(),
             };
             models.push((e.t_s, model));
         }
