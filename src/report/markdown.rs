@@ -122,20 +122,24 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             "\n## Table 2 ({}): identified vs true base parameters\n",
             e.method
         );
+        let truth_note = if e.method == "pmsm" {
+            " (SI)"
+        } else if st.motor_model == "efficiency" {
+            ", divided by the nominal efficiency"
+        } else {
+            " (SI; the linear model also absorbs the copper losses it does not represent)"
+        };
         let _ = writeln!(
             w,
-            "{} of {} parameters are well excited (relative standard deviation < {} %); \
-             their largest error is {:.3} %. Truth: the twin's base parameters{}.\n",
+            "{} of {} parameters are well excited (relative standard deviation < {} %){}. \
+             Truth: the twin's base parameters{truth_note}.\n",
             well.len(),
             rows.len(),
             WELL_EXCITED_REL_STD_PCT,
-            worst_well,
-            if e.method == "pmsm" {
-                " (SI)"
-            } else if st.motor_model == "efficiency" {
-                ", divided by the nominal efficiency"
+            if well.is_empty() {
+                String::new()
             } else {
-                " (SI; the linear model also absorbs the copper losses it does not represent)"
+                format!("; their largest error is {worst_well:.3} %")
             }
         );
         let _ = writeln!(
