@@ -264,13 +264,13 @@ fn task_parameters_and_sweep_results_round_trip() {
         2
     );
     assert_eq!(
-        content.rows("sweep/energy_J/load_0.5kg_twin", SPEED_TIMELINE),
+        content.rows("sweep/energy_J/load_0p5kg_twin", SPEED_TIMELINE),
         2
     );
     assert!(
         !content
             .entities
-            .contains_key("sweep/energy_J/load_0.5kg_model"),
+            .contains_key("sweep/energy_J/load_0p5kg_model"),
         "no prediction, no model series"
     );
     assert!(content.blueprint_chunks > 0, "no blueprint in the file");
@@ -306,6 +306,12 @@ fn bad_inputs_are_errors_not_panics() {
     assert!(Viz::new("", &[Sink::Save(rrd_path("bad2"))]).is_err());
     let url = Some("http://example.invalid/not-rerun".to_owned());
     assert!(Viz::new("powertwin_test", &[Sink::Connect(url)]).is_err());
+    // Nothing listens on port 1: an error at once, not a recording that blocks later.
+    let url = Some("rerun+http://127.0.0.1:1/proxy".to_owned());
+    match Viz::new("powertwin_test", &[Sink::Connect(url)]) {
+        Err(powertwin::Error::Viz(msg)) => assert!(msg.contains("no Rerun viewer"), "{msg}"),
+        other => panic!("expected a missing-viewer error, got {other:?}"),
+    }
     let missing_dir = rrd_path("no_such_dir").join("x.rrd");
     assert!(Viz::new("powertwin_test", &[Sink::Save(missing_dir)]).is_err());
 }

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use common::rrd::{self, FileContent};
 use common::{run, tmp};
-use powertwin::viz::{SPEED_TIMELINE, TIMELINE};
+use powertwin::viz::{SPEED_TIMELINE, TIMELINE, path_part};
 
 /// Via points reached after the start of the built-in path (13 steps).
 const VIA_REACHED: usize = 12;
@@ -71,6 +71,56 @@ fn assert_task_run(content: &FileContent, prefix: &str, cycle_s: f64, predicted:
 }
 
 #[test]
+fn simulate_saves_the_run_with_its_payload() {
+    // 2 s at 1 kHz: joint i moves 0.1 i (1 - cos(pi t)) rad.
+    let traj = tmp("traj.csv");
+    let mut text = String::from("t,q1,q2,q3,q4,q5,q6\n");
+    for k in 0..=40 {
+        let t = k as f64 * 0.05;
+        let q: Vec<String> = (1..=6)
+            .map(|i| {
+                format!(
+                    "{}",
+                    0.1 * i as f64 * (1.0 - (std::f64::consts::PI * t).cos())
+                )
+            })
+            .collect();
+        text.push_str(&format!("{t},{}\n", q.join(",")));
+    }
+    std::fs::write(&traj, text).unwrap();
+    let (out, rrd_path) = (tmp("simulated"), tmp("simulate.rrd"));
+    let (code, _, err) = run(&[
+        "simulate",
+        "--trajectory",
+        traj.to_str().unwrap(),
+        "--payload",
+        "load_2kg",
+        "--out",
+        out.to_str().unwrap(),
+        "--save",
+        rrd_path.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let content = rrd::read(&rrd_path);
+    let rows = displayed_rows(&content, "run/power/joint1/simulated_W", 2.0);
+    for name in [
+        "run/robot/link_6",
+        "run/energy/simulated_J",
+        "run/payload/mass_kg",
+    ] {
+        assert_eq!(content.rows(name, TIMELINE), rows, "{name}");
+    }
+    // 10 Hz measurements over 2 s; the payload mounted at t = 0.
+    assert_eq!(content.rows("run/power/joint1/measured_W", TIMELINE), 20);
+    assert_eq!(content.rows("run/events", TIMELINE), 1);
+    assert!(content.is_static("run/robot/flange_path"));
+    assert!(content.blueprint_chunks > 0);
+    std::fs::remove_dir_all(&out).unwrap();
+    std::fs::remove_file(&rrd_path).unwrap();
+    std::fs::remove_file(&traj).unwrap();
+}
+
+#[test]
 fn sweep_saves_every_cell_and_the_energies() {
     let out = tmp("sweep");
     let rrd_path = tmp("sweep.rrd");
@@ -92,7 +142,7 @@ fn sweep_saves_every_cell_and_the_energies() {
     let cells = cycle_times(&out.join("sweep.json"));
     assert_eq!(cells.len(), 2);
     for (speed, load, cycle_s) in cells {
-        let prefix = format!("sweep/{speed}mps_{load}kg");
+        let prefix = format!("sweep/{}mps_{}kg", path_part(&speed.to_string()), load);
         assert_task_run(&content, &prefix, cycle_s, false);
         // The tool mounted (and with a load: two picks, two releases), then every via point.
         let payload_events = if load > 0.0 { 5 } else { 1 };
@@ -154,7 +204,7 @@ fn reproduce_always_saves_its_recording_and_any_other_asked_for() {
     }
     // The quick sweep: 0.1, 0.5, 1 m/s with 0 and 4 kg, twin and model.
     for load in [0, 4] {
-        for speed in ["0.1", "0.5", "1"] {
+        for speed in ["0p1", "0p5", "1"] {
             let prefix = format!("sweep/{speed}mps_{load}kg");
             assert!(content.is_static(&format!("{prefix}/robot/via_points")));
             assert!(

@@ -5,11 +5,10 @@ use nalgebra::Isometry3;
 use rayon::prelude::*;
 
 use super::recording::decimated_rows;
-use super::{Tab, Viz};
+use super::{Tab, Viz, path_part};
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::model::PowerModel;
-use crate::io::slug;
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
@@ -74,7 +73,7 @@ impl Viz {
         Ok(())
     }
 
-    /// Log a speed x load sweep: every cell's run under `{root}/{v}mps_{L}kg` with its plan
+    /// Log a speed x load sweep: every cell's run under `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`) with its plan
     /// ([`Viz::log_task`]; `tcp`: the TCP in the flange frame, m) and, with `predictor`, the
     /// model's power from the plan and the known payloads; and the energies and table of the
     /// cells under `root` ([`Viz::log_sweep_cells`]). First sends a layout that shows the
@@ -99,7 +98,7 @@ impl Viz {
 
     /// Log what `powertwin reproduce` found by running `plan`: each identification step's
     /// run under `table3/step{k}`, each tool and load case under `table4/{case}` and each
-    /// sweep cell under `sweep/{v}mps_{L}kg`, all with the power of the best estimator's
+    /// sweep cell under `sweep/{v}mps_{L}kg` (e.g. `sweep/0p5mps_4kg`), all with the power of the best estimator's
     /// model (known payloads added with the drives' nominal `efficiency`); every estimator's
     /// parameter errors under `identification/{method}` (Table 2); and the sweep's energies
     /// under `sweep` (Figure 14). First sends a layout with tabs for the representative sweep
@@ -135,7 +134,7 @@ impl Viz {
         let roots: Vec<String> = outcome
             .estimators
             .iter()
-            .map(|e| format!("identification/{}", slug(&e.method)))
+            .map(|e| format!("identification/{}", path_part(&e.method)))
             .collect();
         let (run, energies) = sweep_tabs(robot, &outcome.sweep, "sweep");
         let mut tabs: Vec<Tab> = run.into_iter().collect();
@@ -190,7 +189,7 @@ impl Viz {
             .zip(&outcome.cases.datasets)
         {
             jobs.push(Job {
-                prefix: format!("table4/{}", slug(name)),
+                prefix: format!("table4/{}", path_part(name)),
                 dataset,
                 prediction: Some(Prediction {
                     model: &best.model,
@@ -248,7 +247,7 @@ impl Viz {
     }
 }
 
-/// One job per sweep cell, under `{root}/{v}mps_{L}kg`.
+/// One job per sweep cell, under `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`).
 fn sweep_jobs<'a>(
     sweep: &'a Sweep,
     predictor: Option<Predictor<'a>>,
@@ -282,9 +281,10 @@ fn sweep_jobs<'a>(
         .collect())
 }
 
-/// Entity prefix of a sweep cell's run: `{root}/{v}mps_{L}kg`.
+/// Entity prefix of a sweep cell's run: `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`).
 fn cell_prefix(root: &str, cell: &Cell) -> String {
-    format!("{root}/{}mps_{}kg", cell.speed_m_s, cell.load_kg)
+    let (v, load) = (cell.speed_m_s.to_string(), cell.load_kg.to_string());
+    format!("{root}/{}mps_{}kg", path_part(&v), path_part(&load))
 }
 
 /// The tabs of a sweep logged under `root`: the representative cell's run (none without

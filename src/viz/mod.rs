@@ -5,8 +5,9 @@
 //! the twin nothing while it runs. Time is the duration timeline [`TIMELINE`] (`sim_time`, s).
 //!
 //! # Entity tree
-//! A `prefix` (e.g. `"run"`, `"table3/step6"`, `"sweep/0.5mps_4kg"`; may be empty) keeps
-//! several runs apart. Units are in the leaf names, which are also the series names in the
+//! A `prefix` (e.g. `"run"`, `"table3/step6"`, `"sweep/0p5mps_4kg"`; may be empty) keeps
+//! several runs apart. Names and numbers in paths go through [`path_part`]: the viewer does
+//! not resolve a layout's origin with a `.` in it, so `0.5` is written `0p5`. Units are in the leaf names, which are also the series names in the
 //! plots; series with a common parent share a plot in the default layout.
 //!
 //! | entity | what | logged by |
@@ -136,6 +137,12 @@ fn entity(prefix: &str, rest: &str) -> String {
     }
 }
 
+/// A name or number as one entity path part: [`crate::io::slug`] with `.` written `p` (e.g.
+/// `0.5` gives `0p5`, `"tool + 0.5 kg"` gives `"tool_0p5_kg"`).
+pub fn path_part(name: &str) -> String {
+    crate::io::slug(name).replace('.', "p")
+}
+
 /// An [`Error::Viz`] with context.
 fn viz_err(what: &str, e: impl Display) -> Error {
     Error::Viz(format!("{what}: {e}"))
@@ -143,7 +150,7 @@ fn viz_err(what: &str, e: impl Display) -> Error {
 
 #[cfg(test)]
 mod tests {
-    use super::entity;
+    use super::{entity, path_part};
 
     #[test]
     fn entity_paths_join_prefixes() {
@@ -151,5 +158,12 @@ mod tests {
         assert_eq!(entity("/", "robot"), "robot");
         assert_eq!(entity("run", "robot"), "run/robot");
         assert_eq!(entity("/sweep/v50/", "power"), "sweep/v50/power");
+    }
+
+    #[test]
+    fn path_parts_have_no_dots() {
+        assert_eq!(path_part("0.5"), "0p5");
+        assert_eq!(path_part("tool + 0.5 kg"), "tool_0p5_kg");
+        assert_eq!(path_part("paper-steps"), "paper_steps");
     }
 }

@@ -3,7 +3,7 @@
 
 use rerun::{BarChart, Points3D, TextDocument, TextLog, TimeColumn};
 
-use super::{EVENTS_ENTITY, SPEED_TIMELINE, TIMELINE, Viz, entity, viz_err};
+use super::{EVENTS_ENTITY, SPEED_TIMELINE, TIMELINE, Viz, entity, path_part, viz_err};
 use crate::error::{Error, Result, ensure_finite};
 use crate::validation::params::ParamRow;
 use crate::validation::sweep::Cell;
@@ -106,7 +106,7 @@ impl Viz {
     }
 
     /// Log a speed x load sweep under `root` (e.g. `"sweep"`): per load `L`, the energy per
-    /// cycle of the twin (`{root}/energy_J/load_{L}kg_twin`) and of the model where predicted
+    /// cycle of the twin (`{root}/energy_J/load_{L}kg_twin`, e.g. `load_0p5kg_twin`) and of the model where predicted
     /// (`..._model`), J, against the commanded TCP speed in mm/s on the sequence timeline
     /// [`SPEED_TIMELINE`] (select it in the viewer's time panel to see the plot); and a
     /// Markdown table of the cells (`{root}/table`).
@@ -123,7 +123,8 @@ impl Viz {
             row.sort_by(|a, b| a.speed_m_s.total_cmp(&b.speed_m_s));
             let x: Vec<i64> = row.iter().map(|c| mm_s(c)).collect();
             let twin: Vec<f64> = row.iter().map(|c| c.simulated_j).collect();
-            let name = |what: &str| entity(root, &format!("energy_J/load_{load}kg_{what}"));
+            let kg = path_part(&load.to_string());
+            let name = |what: &str| entity(root, &format!("energy_J/load_{kg}kg_{what}"));
             self.log_series(&name("twin"), SPEED_TIMELINE, &x, &twin)?;
             let (xp, model): (Vec<i64>, Vec<f64>) = row
                 .iter()
