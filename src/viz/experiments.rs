@@ -73,11 +73,11 @@ impl Viz {
         Ok(())
     }
 
-    /// Log a speed x load sweep: every cell's run under `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`) with its plan
-    /// ([`Viz::log_task`]; `tcp`: the TCP in the flange frame, m) and, with `predictor`, the
-    /// model's power from the plan and the known payloads; and the energies and table of the
-    /// cells under `root` ([`Viz::log_sweep_cells`]). First sends a layout that shows the
-    /// [representative](Sweep::representative) cell's run and the energy plot.
+    /// Log a speed x load sweep: every cell's run under `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`)
+    /// with its plan ([`Viz::log_task`]; `tcp`: the TCP in the flange frame, m) and, with
+    /// `predictor`, the model's power from the plan and the known payloads; and the energies and
+    /// table of the cells under `root` ([`Viz::log_sweep_cells`]). First sends a layout that shows
+    /// the [representative](Sweep::representative) cell's run and the energy plot.
     ///
     /// Errors: those of [`Viz::log_run`] and [`Viz::log_task`]; [`Error::InvalidInput`] when
     /// the sweep has no cells or its cells, datasets and plans differ in number.
@@ -96,13 +96,13 @@ impl Viz {
         self.log_sweep_data(robot, sweep, tcp, predictor, root, display_hz)
     }
 
-    /// Log what `powertwin reproduce` found by running `plan`: each identification step's
-    /// run under `table3/step{k}`, each tool and load case under `table4/{case}` and each
-    /// sweep cell under `sweep/{v}mps_{L}kg` (e.g. `sweep/0p5mps_4kg`), all with the power of the best estimator's
+    /// Log what `powertwin reproduce` found by running `plan`: each identification step's run under
+    /// `table3/step{k}`, each tool and load case under `table4/{case}` and each sweep cell under
+    /// `sweep/{v}mps_{L}kg` (e.g. `sweep/0p5mps_4kg`), all with the power of the best estimator's
     /// model (known payloads added with the drives' nominal `efficiency`); every estimator's
-    /// parameter errors under `identification/{method}` (Table 2); and the sweep's energies
-    /// under `sweep` (Figure 14). First sends a layout with tabs for the representative sweep
-    /// cell, the last identification step, the parameter errors and energy against speed.
+    /// parameter errors under `identification/{method}` (Table 2); and the sweep's energies under
+    /// `sweep` (Figure 14). First sends a layout with tabs for the representative sweep cell, the
+    /// last identification step, the parameter errors and energy against speed.
     ///
     /// Errors: those of [`Viz::log_sweep`]; [`Error::InvalidInput`] when the outcome does not
     /// match the plan (numbers of steps, cases, estimators).

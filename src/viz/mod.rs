@@ -7,8 +7,9 @@
 //! # Entity tree
 //! A `prefix` (e.g. `"run"`, `"table3/step6"`, `"sweep/0p5mps_4kg"`; may be empty) keeps
 //! several runs apart. Names and numbers in paths go through [`path_part`]: the viewer does
-//! not resolve a layout's origin with a `.` in it, so `0.5` is written `0p5`. Units are in the leaf names, which are also the series names in the
-//! plots; series with a common parent share a plot in the default layout.
+//! not resolve a layout's origin with a `.` in it, so `0.5` is written `0p5`. Units are in
+//! the leaf names, which are also the series names in the plots; series with a common parent
+//! share a plot in the default layout.
 //!
 //! | entity | what | logged by |
 //! |---|---|---|

@@ -89,26 +89,28 @@ impl Viz {
         let errors: Vec<f64> = rows.iter().map(|r| r.error_pct.unwrap_or(0.0)).collect();
         self.log_bar_chart(&entity(root, "error_pct"), &errors)?;
         let mut md = String::from(
-            "| bar | parameter | identified | truth | error % | rel. std % |\n|---:|---|---:|---:|---:|---:|\n",
+            "| bar | parameter | identified | truth | error % | rel. std % |\n\
+             |---:|---|---:|---:|---:|---:|\n",
         );
-        let pct = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:+.3}"));
+        let error = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:+.3}"));
+        let std = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.3}"));
         for (k, r) in rows.iter().enumerate() {
             md.push_str(&format!(
                 "| {k} | {} | {:.6e} | {:.6e} | {} | {} |\n",
                 r.name,
                 r.identified,
                 r.truth,
-                pct(r.error_pct),
-                pct(r.rel_std_pct)
+                error(r.error_pct),
+                std(r.rel_std_pct)
             ));
         }
         self.log_text(&entity(root, "table"), &md)
     }
 
-    /// Log a speed x load sweep under `root` (e.g. `"sweep"`): per load `L`, the energy per
-    /// cycle of the twin (`{root}/energy_J/load_{L}kg_twin`, e.g. `load_0p5kg_twin`) and of the model where predicted
-    /// (`..._model`), J, against the commanded TCP speed in mm/s on the sequence timeline
-    /// [`SPEED_TIMELINE`] (select it in the viewer's time panel to see the plot); and a
+    /// Log a speed x load sweep under `root` (e.g. `"sweep"`): per load `L`, the energy per cycle
+    /// of the twin (`{root}/energy_J/load_{L}kg_twin`, e.g. `load_0p5kg_twin`) and of the model
+    /// where predicted (`..._model`), J, against the commanded TCP speed in mm/s on the sequence
+    /// timeline [`SPEED_TIMELINE`] (select it in the viewer's time panel to see the plot); and a
     /// Markdown table of the cells (`{root}/table`).
     pub fn log_sweep_cells(&self, root: &str, cells: &[Cell]) -> Result<()> {
         let mut loads: Vec<f64> = Vec::new();
