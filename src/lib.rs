@@ -9,8 +9,8 @@
 //! [`model`] (URDF, drives, payloads) -> [`kinematics`] -> [`dynamics`] (RNEA, regressor,
 //! mass matrix, base parameters) -> [`trajectory`] -> [`twin`] (Rapier, controller, motor
 //! and sensor models) -> [`dataset`] -> later stages (identification, energy, validation).
-//! `viz` (cargo feature `viz`, off by default for now: build with `--features viz`) logs the robot, runs and results to the Rerun
-//! viewer after the fact.
+//! `viz` (cargo feature `viz`, on by default; opt out with `default-features = false`) logs
+//! the robot, runs and results to the Rerun viewer after the fact.
 //! [`report`] writes the charts of the reproduction report as SVG and PNG.
 //!
 //! Units are SI everywhere (m, rad, kg, s, N m, W, J); frames are described in [`model`].

@@ -325,3 +325,51 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
     let err = p.drop_slow_samples(1e6).unwrap_err();
     assert!(err.to_string().contains("no sample"), "{err}");
 }
+
+#[test]
+fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
+    use powertwin::identification::model::PowerModel;
+    use powertwin::model::builtin;
+    use powertwin::twin::PayloadEvent;
+    let robot = common::irb1200();
+    let layout = ParamLayout::new(&robot, true, true);
+    let mut model = PowerModel::new(&robot, layout, false).unwrap();
+    let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
+    model.theta = bp
+        .base_values(&layout.theta(&robot, &common::drive_terms(6)))
+        .unwrap();
+    model.copper = vec![0.01; 6];
+    model.constant[0] = 42.0;
+    let traj = random_fourier(
+        &robot,
+        &mut common::rng(3),
+        &RandomFourierOptions::default(),
+    )
+    .unwrap();
+    let events = [PayloadEvent {
+        t_s: 1.0,
+        payload: Some(builtin::payload("load_2kg").unwrap()),
+    }];
+    let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.04).collect();
+    let total = model
+        .power_with_payloads(&robot, &traj, &events, 0.9, &t)
+        .unwrap();
+    let joints = model
+        .joint_powers_with_payloads(&robot, &traj, &events, 0.9, &t)
+        .unwrap();
+    assert_eq!(joints.len(), 6);
+    for (k, p) in total.iter().enumerate() {
+        // The same terms added in the same order: the same bits.
+        let sum = joints.iter().fold(0.0, |s, j| s + j[k]);
+        assert_eq!(sum.to_bits(), p.to_bits(), "sample {k}");
+    }
+    // The constant power sits on joint 1; the payload from 1 s on changes the prediction.
+    let still = model
+        .joint_powers_with_payloads(&robot, &traj, &[], 0.9, &t)
+        .unwrap();
+    assert_eq!(still[0].len(), t.len());
+    assert!((0..25).all(|k| (0..6).all(|i| still[i][k] == joints[i][k])));
+    assert!((25..50).any(|k| (1..6).any(|i| still[i][k] != joints[i][k])));
+}

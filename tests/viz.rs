@@ -4,74 +4,15 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
+use common::rrd;
 use powertwin::Robot;
+use powertwin::trajectory::task::Scenario;
 use powertwin::twin::record::{Measured, Recording};
-use powertwin::viz::{DEFAULT_DISPLAY_HZ, EVENTS_ENTITY, Sink, TIMELINE, Viz};
-use rerun::StoreKind;
-use rerun::external::re_log_encoding::DecoderApp;
-use rerun::log::{Chunk, LogMsg};
-
-/// What one entity holds in the file: static chunks and rows per timeline.
-#[derive(Debug, Default)]
-struct EntityContent {
-    has_static: bool,
-    rows: BTreeMap<String, usize>,
-}
-
-/// What an `.rrd` file holds.
-#[derive(Debug, Default)]
-struct FileContent {
-    entities: BTreeMap<String, EntityContent>,
-    blueprint_chunks: usize,
-}
-
-impl FileContent {
-    fn rows(&self, entity: &str, timeline: &str) -> usize {
-        self.entities
-            .get(entity)
-            .unwrap_or_else(|| panic!("entity {entity} missing; have {:?}", self.entity_names()))
-            .rows
-            .get(timeline)
-            .copied()
-            .unwrap_or(0)
-    }
-
-    fn entity_names(&self) -> Vec<&String> {
-        self.entities.keys().collect()
-    }
-}
-
-fn read_rrd(path: &PathBuf) -> FileContent {
-    let file = std::fs::File::open(path).expect("rrd file exists");
-    let decoder = DecoderApp::decode_eager(std::io::BufReader::new(file)).expect("valid rrd");
-    let mut content = FileContent::default();
-    for msg in decoder {
-        let LogMsg::ArrowMsg(store_id, arrow) = msg.expect("message decodes") else {
-            continue;
-        };
-        if store_id.kind() == StoreKind::Blueprint {
-            content.blueprint_chunks += 1;
-            continue;
-        }
-        let chunk = Chunk::from_arrow_msg(&arrow).expect("chunk decodes");
-        // Entity paths print with a leading slash.
-        let name = chunk.entity_path().to_string();
-        let e = content
-            .entities
-            .entry(name.trim_start_matches('/').to_owned())
-            .or_default();
-        if chunk.is_static() {
-            e.has_static = true;
-        }
-        for timeline in chunk.timelines().keys() {
-            *e.rows.entry(timeline.to_string()).or_default() += chunk.num_rows();
-        }
-    }
-    content
-}
+use powertwin::validation::params::ParamRow;
+use powertwin::validation::sweep::Cell;
+use powertwin::viz::{DEFAULT_DISPLAY_HZ, EVENTS_ENTITY, SPEED_TIMELINE, Sink, TIMELINE, Tab, Viz};
 
 /// A hand-made 2 s run at 1 kHz: sinusoidal joints, power from tau dq, a payload from 1 s on.
 fn synthetic_recording(robot: &Robot) -> Recording {
@@ -145,10 +86,17 @@ fn run_round_trips_through_an_rrd_file() {
         viz.log_recording(&robot, &rec, "run", DEFAULT_DISPLAY_HZ)
             .unwrap();
         viz.log_measured(&m, "run").unwrap();
-        let pred: Vec<f64> = m.p_total.iter().map(|p| 1.05 * p).collect();
-        viz.log_power_prediction(&m.t, &pred, "run").unwrap();
-        viz.log_events(&[(1.0, "pick 2 kg".to_owned()), (1.9, "release".to_owned())])
-            .unwrap();
+        let pred: Vec<Vec<f64>> = m
+            .p_joint
+            .iter()
+            .map(|s| s.iter().map(|p| 1.05 * p).collect())
+            .collect();
+        viz.log_prediction(&m.t, &pred, "run").unwrap();
+        viz.log_events(
+            &[(1.0, "pick 2 kg".to_owned()), (1.9, "release".to_owned())],
+            "run",
+        )
+        .unwrap();
         viz.log_points(
             "run/robot/via_points",
             &[
@@ -168,10 +116,15 @@ fn run_round_trips_through_an_rrd_file() {
             )
             .unwrap();
         }
-        viz.send_blueprint("run").unwrap();
+        let tab = Tab::Run {
+            title: "run".into(),
+            prefix: "run".into(),
+            joints: robot.dof(),
+        };
+        viz.send_blueprint(&[tab]).unwrap();
         viz.flush().unwrap();
     }
-    let content = read_rrd(&path);
+    let content = rrd::read(&path);
 
     // 2000 rows at 1 kHz shown at 50 Hz: every 20th row, 100 rows.
     let shown = 100;
@@ -180,7 +133,7 @@ fn run_round_trips_through_an_rrd_file() {
             format!("run/joints/q/q{j}_rad"),
             format!("run/joints/dq/dq{j}_rad_s"),
             format!("run/joints/tau/tau{j}_Nm"),
-            format!("run/power/joint/p{j}_W"),
+            format!("run/power/joint{j}/simulated_W"),
         ] {
             assert_eq!(content.rows(&name, TIMELINE), shown, "{name}");
         }
@@ -189,24 +142,33 @@ fn run_round_trips_through_an_rrd_file() {
             content.rows(&format!("run/robot/link_{j}"), TIMELINE),
             1 + shown
         );
-        assert_eq!(
-            content.rows(&format!("run/measured/q/q{j}_rad"), TIMELINE),
-            m.t.len()
-        );
+        // Measured and predicted motor power in the simulated one's plot (same parent).
+        for name in [
+            format!("run/measured/q/q{j}_rad"),
+            format!("run/power/joint{j}/measured_W"),
+            format!("run/power/joint{j}/predicted_W"),
+        ] {
+            assert_eq!(content.rows(&name, TIMELINE), m.t.len(), "{name}");
+        }
     }
     for name in [
         "run/power/total/simulated_W",
         "run/power/total/grid_W",
-        "run/energy/total_J",
+        "run/energy/simulated_J",
         "run/energy/grid_J",
         "run/payload/mass_kg",
     ] {
         assert_eq!(content.rows(name, TIMELINE), shown, "{name}");
     }
     // Predicted and measured in the simulated power's plot (same parent).
-    assert_eq!(content.rows("run/power/total/predicted_W", TIMELINE), 20);
-    assert_eq!(content.rows("run/power/total/measured_W", TIMELINE), 20);
-    assert_eq!(content.rows(EVENTS_ENTITY, TIMELINE), 2);
+    for name in [
+        "run/power/total/predicted_W",
+        "run/power/total/measured_W",
+        "run/energy/predicted_J",
+    ] {
+        assert_eq!(content.rows(name, TIMELINE), 20, "{name}");
+    }
+    assert_eq!(content.rows(&format!("run/{EVENTS_ENTITY}"), TIMELINE), 2);
     assert_eq!(content.rows("sweep/energy_J/load_2kg", "speed_pct"), 3);
 
     // Static geometry: the base and every link's shapes, the flange path, points, bars.
@@ -219,12 +181,98 @@ fn run_round_trips_through_an_rrd_file() {
         "run/robot/via_points",
         "identification/error_pct",
     ] {
-        let e = content
-            .entities
-            .get(name)
-            .unwrap_or_else(|| panic!("{name} missing; have {:?}", content.entity_names()));
-        assert!(e.has_static, "{name} is not static");
+        assert!(content.is_static(name), "{name} is not static");
     }
+    assert!(content.blueprint_chunks > 0, "no blueprint in the file");
+}
+
+#[test]
+fn task_parameters_and_sweep_results_round_trip() {
+    let robot = common::irb1200();
+    let scenario = Scenario::builtin().unwrap();
+    let run = scenario.plan(&robot, 0.5, 2.0).unwrap();
+    let rows: Vec<ParamRow> = ["m6", "fc1", "XX6R"]
+        .iter()
+        .zip([Some(1.5), Some(-0.2), None])
+        .map(|(name, error_pct)| ParamRow {
+            name: name.to_string(),
+            identified: 1.0,
+            truth: 1.0,
+            error_pct,
+            rel_std_pct: Some(0.1),
+        })
+        .collect();
+    let cell = |speed_m_s: f64, load_kg: f64, predicted: Option<f64>| Cell {
+        speed_m_s,
+        load_kg,
+        cycle_time_s: 1.0 / speed_m_s,
+        simulated_j: 100.0 + load_kg,
+        simulated_grid_j: 110.0,
+        predicted_j: predicted,
+        predicted_grid_j: predicted,
+        error_pct: predicted.map(|p| p - 100.0 - load_kg),
+        slowed: Vec::new(),
+    };
+    let cells = [
+        cell(0.1, 0.0, Some(101.0)),
+        cell(0.5, 0.0, Some(99.0)),
+        cell(0.1, 0.5, None),
+        cell(0.5, 0.5, None),
+    ];
+    let path = rrd_path("task");
+    {
+        let viz = Viz::new("powertwin_test", &[Sink::Save(path.clone())]).unwrap();
+        viz.log_task(&robot, &run, &scenario.tcp(), "task", DEFAULT_DISPLAY_HZ)
+            .unwrap();
+        viz.log_parameters("identification/paper-steps", &rows)
+            .unwrap();
+        viz.log_sweep_cells("sweep", &cells).unwrap();
+        let tabs = [
+            Tab::Parameters {
+                title: "parameters".into(),
+                roots: vec!["identification/paper-steps".into()],
+            },
+            Tab::Sweep {
+                title: "sweep".into(),
+                root: "sweep".into(),
+            },
+        ];
+        viz.send_blueprint(&tabs).unwrap();
+        assert!(viz.send_blueprint(&[]).is_err());
+        viz.flush().unwrap();
+    }
+    let content = rrd::read(&path);
+    for name in [
+        "task/robot/via_points",
+        "task/robot/tcp_path",
+        "task/robot/link_6/tcp",
+        "identification/paper-steps/error_pct",
+        "identification/paper-steps/table",
+        "sweep/table",
+    ] {
+        assert!(content.is_static(name), "{name} is not static");
+    }
+    // Events: the tool mounted, two picks and two releases, and every via point after the
+    // start (12 of the 13 steps of the path).
+    assert_eq!(content.rows("task/events", TIMELINE), 5 + 12);
+    assert_eq!(
+        content.rows("sweep/energy_J/load_0kg_twin", SPEED_TIMELINE),
+        2
+    );
+    assert_eq!(
+        content.rows("sweep/energy_J/load_0kg_model", SPEED_TIMELINE),
+        2
+    );
+    assert_eq!(
+        content.rows("sweep/energy_J/load_0p5kg_twin", SPEED_TIMELINE),
+        2
+    );
+    assert!(
+        !content
+            .entities
+            .contains_key("sweep/energy_J/load_0p5kg_model"),
+        "no prediction, no model series"
+    );
     assert!(content.blueprint_chunks > 0, "no blueprint in the file");
 }
 
@@ -241,9 +289,14 @@ fn bad_inputs_are_errors_not_panics() {
     );
     rec.tau[2].pop();
     assert!(viz.log_recording(&robot, &rec, "r", 50.0).is_err());
-    assert!(viz.log_power_prediction(&[0.0, 1.0], &[1.0], "r").is_err());
+    assert!(viz.log_prediction(&[0.0, 1.0], &[vec![1.0]], "r").is_err());
+    assert!(
+        viz.log_prediction(&[1.0, 0.0], &[vec![1.0, 2.0]], "r")
+            .is_err()
+    );
+    assert!(viz.log_prediction(&[0.0, 1.0], &[], "r").is_err());
     assert!(viz.log_series("s", "x", &[1, 2], &[1.0]).is_err());
-    assert!(viz.log_events(&[(f64::NAN, "e".into())]).is_err());
+    assert!(viz.log_events(&[(f64::NAN, "e".into())], "r").is_err());
     assert!(
         viz.log_points("p", &[("A".into(), [0.0, f64::INFINITY, 0.0])])
             .is_err()
@@ -253,6 +306,12 @@ fn bad_inputs_are_errors_not_panics() {
     assert!(Viz::new("", &[Sink::Save(rrd_path("bad2"))]).is_err());
     let url = Some("http://example.invalid/not-rerun".to_owned());
     assert!(Viz::new("powertwin_test", &[Sink::Connect(url)]).is_err());
+    // Nothing listens on port 1: an error at once, not a recording that blocks later.
+    let url = Some("rerun+http://127.0.0.1:1/proxy".to_owned());
+    match Viz::new("powertwin_test", &[Sink::Connect(url)]) {
+        Err(powertwin::Error::Viz(msg)) => assert!(msg.contains("no Rerun viewer"), "{msg}"),
+        other => panic!("expected a missing-viewer error, got {other:?}"),
+    }
     let missing_dir = rrd_path("no_such_dir").join("x.rrd");
     assert!(Viz::new("powertwin_test", &[Sink::Save(missing_dir)]).is_err());
 }

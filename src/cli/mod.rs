@@ -28,6 +28,8 @@ mod progress;
 mod reproduce;
 mod simulate;
 mod sweep;
+#[cfg(feature = "viz")]
+mod viz;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -20,7 +20,7 @@ use powertwin::twin::TwinConfig;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
-use powertwin::validation::reproduce::{Outcome, Plan, run as run_plan};
+use powertwin::validation::reproduce::{Outcome, Plan, StageTime, run as run_plan};
 use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
@@ -35,8 +35,8 @@ const CHART_SIZE: (u32, u32) = (960, 600);
 /// step-by-step identification from total power (Table 3); the paper's method against
 /// all-at-once and PMSM estimators on the same data, with identified against true base
 /// parameters (Table 2); the tool and load cases (Table 4); and the pick-and-place task over
-/// speeds and loads (Figure 14). Writes report.md, results.json, charts (SVG and PNG) and every
-/// twin dataset under --out.
+/// speeds and loads (Figure 14). Writes report.md, results.json, charts (SVG and PNG), every
+/// twin dataset and (with the `viz` feature) the Rerun recording powertwin.rrd under --out.
 #[derive(Debug, Args)]
 pub struct ReproduceArgs {
     /// Output directory (created; existing files in it are replaced).
@@ -63,7 +63,15 @@ pub struct ReproduceArgs {
     /// Table format of the datasets.
     #[arg(long, default_value = "parquet")]
     format: Format,
+    /// Also send the recording that is always saved to <out>/powertwin.rrd elsewhere.
+    #[cfg(feature = "viz")]
+    #[command(flatten)]
+    viz: crate::cli::viz::VizArgs,
 }
+
+/// File name of the Rerun recording `reproduce` always writes under --out.
+#[cfg(feature = "viz")]
+const RECORDING_FILE: &str = "powertwin.rrd";
 
 /// Run everything and write the report.
 pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
@@ -108,6 +116,8 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    #[cfg(feature = "viz")]
+    let viz = args.viz.open(Some(&args.out.join(RECORDING_FILE)))?;
 
     let bars = Bars::new();
     let outcome = run_plan(&rig, &plan, &bars)?;
@@ -126,12 +136,26 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         plots.push((format!("plots/{}", f.stem), f.caption.clone()));
     }
     let mut outcome = outcome;
-    outcome
-        .timings
-        .push(powertwin::validation::reproduce::StageTime {
-            stage: "datasets and charts written".into(),
-            wall_s: writing.elapsed().as_secs_f64(),
+    outcome.timings.push(StageTime {
+        stage: "datasets and charts written".into(),
+        wall_s: writing.elapsed().as_secs_f64(),
+    });
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        let logging = Instant::now();
+        viz.log_reproduce(
+            &robot,
+            &plan,
+            &outcome,
+            drive.nominal_efficiency(),
+            powertwin::viz::DEFAULT_DISPLAY_HZ,
+        )?;
+        viz.flush()?;
+        outcome.timings.push(StageTime {
+            stage: format!("Rerun recording written ({RECORDING_FILE})"),
+            wall_s: logging.elapsed().as_secs_f64(),
         });
+    }
     let settings = Settings {
         robot: robot.name().to_string(),
         motor_model: args.motor.name().to_string(),
@@ -159,30 +183,12 @@ fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
         all.push((format!("table3_step{}", k + 1), ds));
     }
     for (row, ds) in outcome.cases.rows.iter().zip(&outcome.cases.datasets) {
-        all.push((format!("table4_{}", slug(&row.case)), ds));
+        all.push((format!("table4_{}", powertwin::io::slug(&row.case)), ds));
     }
     for (cell, ds) in outcome.sweep.cells.iter().zip(&outcome.sweep.datasets) {
         all.push((sweep_name(cell), ds));
     }
     write_all(&all, dir, format)
-}
-
-/// A file-name-safe version of a case name.
-fn slug(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '.' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    s.split('_')
-        .filter(|p| !p.is_empty())
-        .collect::<Vec<_>>()
-        .join("_")
 }
 
 /// What the terminal shows at the end.
@@ -247,9 +253,14 @@ fn summary(r: &Results, out: &Path) -> String {
             opt.predicted_m_s.unwrap_or(f64::NAN)
         );
     }
+    let recording = if cfg!(feature = "viz") {
+        ", powertwin.rrd"
+    } else {
+        ""
+    };
     outln!(
         o,
-        "Wrote {}/report.md, results.json, plots/ and datasets/ in {:.1} s.",
+        "Wrote {}/report.md, results.json{recording}, plots/ and datasets/ in {:.1} s.",
         out.display(),
         r.total_wall_s
     );

@@ -27,12 +27,17 @@ pub struct SimulateArgs {
     /// Output dataset directory (written atomically; an existing dataset there is replaced).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    #[cfg(feature = "viz")]
+    #[command(flatten)]
+    viz: super::viz::VizArgs,
 }
 
 /// Run `simulate`.
 pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
     let table = Table::read(&args.trajectory)?;
+    #[cfg(feature = "viz")]
+    let viz = args.viz.open(None)?;
     let traj = Sampled::from_table(&table, setup.robot.dof())?;
     let events: Vec<PayloadEvent> = setup
         .payload
@@ -77,6 +82,19 @@ pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
             "warning: joint '{}' hit its torque limit first at t = {:.3} s ({} steps clipped)",
             hit.joint, hit.first_t_s, hit.steps
         );
+    }
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        use powertwin::viz::{DEFAULT_DISPLAY_HZ, Tab};
+        let prefix = "run";
+        viz.send_blueprint(&[Tab::Run {
+            title: format!("simulate {}", args.trajectory.display()),
+            prefix: prefix.into(),
+            joints: setup.robot.dof(),
+        }])?;
+        viz.log_run(&setup.robot, &dataset, None, prefix, DEFAULT_DISPLAY_HZ)?;
+        viz.log_payload_events(&events, prefix)?;
+        viz.flush()?;
     }
     Ok(ExitCode::SUCCESS)
 }

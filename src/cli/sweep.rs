@@ -44,6 +44,9 @@ pub struct SweepArgs {
     /// Print sweep.json to stdout instead of a table.
     #[arg(long)]
     json: bool,
+    #[cfg(feature = "viz")]
+    #[command(flatten)]
+    viz: crate::cli::viz::VizArgs,
 }
 
 /// `sweep.json`.
@@ -92,6 +95,8 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         sensor: setup.sensor,
     };
     let planned = sweep::plan(&setup.robot, &scenario)?;
+    #[cfg(feature = "viz")]
+    let viz = args.viz.open(None)?;
     let bars = Bars::new();
     let efficiency = setup.drive.nominal_efficiency();
     let result = sweep::run(
@@ -118,6 +123,18 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
     powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
     write_chart(&chart(&result), &args.out, "energy_vs_speed", 960, 600)?;
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        viz.log_sweep(
+            &setup.robot,
+            &result,
+            &scenario.tcp(),
+            model.as_ref().map(|m| (m, efficiency)),
+            "sweep",
+            powertwin::viz::DEFAULT_DISPLAY_HZ,
+        )?;
+        viz.flush()?;
+    }
     emit(&if args.json {
         json + "\n"
     } else {

@@ -85,17 +85,19 @@ impl PowerModel {
         ddq: &[f64],
     ) -> f64 {
         regressor(robot, ws, &self.layout, q, dq, ddq, w);
-        let mut p = 0.0;
-        for i in 0..robot.dof() {
-            let tau: f64 = self
-                .columns
-                .iter()
-                .zip(&self.theta)
-                .map(|(&c, th)| w[(i, c)] * th)
-                .sum();
-            p += dq[i] * tau + self.copper[i] * tau * tau + self.constant[i];
-        }
-        p
+        (0..robot.dof()).fold(0.0, |p, i| p + self.joint_power(w, i, dq[i]))
+    }
+
+    /// Predicted power of motor `i` (0-based), W: `dq_i tau_i + c_i tau_i^2 + P0_i` with
+    /// `tau_i` from row `i` of the regressor `w` already evaluated at the state.
+    fn joint_power(&self, w: &DMatrix<f64>, i: usize, dq_i: f64) -> f64 {
+        let tau: f64 = self
+            .columns
+            .iter()
+            .zip(&self.theta)
+            .map(|(&c, th)| w[(i, c)] * th)
+            .sum();
+        dq_i * tau + self.copper[i] * tau * tau + self.constant[i]
     }
 
     /// Predicted energy (J) of following `traj`, integrating the power at step `dt` (s) with
@@ -213,6 +215,45 @@ impl PowerModel {
         efficiency: f64,
         t: &[f64],
     ) -> Result<Vec<f64>> {
+        let mut total = Vec::with_capacity(t.len());
+        self.each_state(robot, traj, events, efficiency, t, |p| {
+            total.push(p.iter().fold(0.0, |s, pi| s + pi));
+        })?;
+        Ok(total)
+    }
+
+    /// Predicted power of each motor (W), `[joint][sample]`, along `traj` at the times `t`
+    /// (s), with the payloads of `events` as in [`PowerModel::energy_with_payloads`]. The
+    /// constant power of the model is all on joint 1 (only its sum is identifiable), and an
+    /// efficiency-scaled model gives motor powers divided by the efficiency, like its total.
+    pub fn joint_powers_with_payloads(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        t: &[f64],
+    ) -> Result<Vec<Vec<f64>>> {
+        let mut joints = vec![Vec::with_capacity(t.len()); robot.dof()];
+        self.each_state(robot, traj, events, efficiency, t, |p| {
+            for (series, pi) in joints.iter_mut().zip(p) {
+                series.push(*pi);
+            }
+        })?;
+        Ok(joints)
+    }
+
+    /// Call `f` with the predicted power of each motor (W) at each time of `t`, with the
+    /// payload model in force then.
+    fn each_state(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        t: &[f64],
+        mut f: impl FnMut(&[f64]),
+    ) -> Result<()> {
         self.check_robot(robot)?;
         let base = (!events.is_empty())
             .then(|| self.base_params(robot))
@@ -229,17 +270,21 @@ impl PowerModel {
         let mut ws = Workspace::new(robot);
         let mut w = DMatrix::zeros(n, self.layout.len());
         let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        Ok(t.iter()
-            .map(|&t| {
-                let model = models
-                    .iter()
-                    .rev()
-                    .find(|(from, _)| *from <= t)
-                    .map_or(self, |(_, m)| m);
-                traj.sample(t, &mut q, &mut dq, &mut ddq);
-                model.power(robot, &mut ws, &mut w, &q, &dq, &ddq)
-            })
-            .collect())
+        let mut p = vec![0.0; n];
+        for &t in t {
+            let model = models
+                .iter()
+                .rev()
+                .find(|(from, _)| *from <= t)
+                .map_or(self, |(_, m)| m);
+            traj.sample(t, &mut q, &mut dq, &mut ddq);
+            regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
+            for (i, pi) in p.iter_mut().enumerate() {
+                *pi = model.joint_power(&w, i, dq[i]);
+            }
+            f(&p);
+        }
+        Ok(())
     }
 }
 

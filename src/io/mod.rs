@@ -11,6 +11,26 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 
+/// A name made safe for file names and Rerun entity paths: ASCII letters, digits and dots
+/// are kept, every run of other characters becomes one `_`, with none at either end (e.g.
+/// `"tool + 2 kg"` gives `"tool_2_kg"`).
+pub fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    s.split('_')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("_")
+}
+
 /// Write `contents` to `path` atomically (temporary file in the same directory + rename).
 pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<()> {
     let dir = match path.parent() {

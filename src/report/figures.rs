@@ -194,12 +194,7 @@ fn step_trace(robot: &Robot, outcome: &Outcome) -> Result<Option<Figure>> {
 /// 0.5 m/s (the speed of the paper's Figure 13).
 fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Option<Figure>> {
     let cells = &outcome.sweep.cells;
-    let Some(k) = (0..cells.len()).min_by(|&a, &b| {
-        let key = |i: usize| ((cells[i].speed_m_s - 0.5).abs(), -cells[i].load_kg);
-        key(a)
-            .partial_cmp(&key(b))
-            .unwrap_or(std::cmp::Ordering::Equal)
-    }) else {
+    let Some(k) = outcome.sweep.representative() else {
         return Ok(None);
     };
     let (cell, ds, plan) = (

@@ -80,6 +80,19 @@ pub struct Sweep {
     pub plans: Vec<TaskRun>,
 }
 
+impl Sweep {
+    /// Index of the cell that shows the task best: the heaviest load at the speed nearest
+    /// 0.5 m/s (the speed of the paper's Figure 13); `None` without cells.
+    pub fn representative(&self) -> Option<usize> {
+        let key = |c: &Cell| ((c.speed_m_s - 0.5).abs(), -c.load_kg);
+        (0..self.cells.len()).min_by(|&a, &b| {
+            key(&self.cells[a])
+                .partial_cmp(&key(&self.cells[b]))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+    }
+}
+
 /// One cell of the grid, planned.
 pub struct Planned {
     /// Commanded TCP speed, m/s.

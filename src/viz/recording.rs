@@ -1,5 +1,5 @@
 //! Twin runs as time series: the simulated truth ([`Recording`]), the logged measurements
-//! ([`Measured`]) and a predicted total power, on the `sim_time` timeline.
+//! ([`Measured`]) and a model's predicted power, on the `sim_time` timeline.
 
 use nalgebra::Isometry3;
 use rerun::{LineStrips3D, TimeColumn};
@@ -18,7 +18,7 @@ impl Viz {
     /// [`super::DEFAULT_DISPLAY_HZ`]; every `round(1 / (dt display_hz))`-th row from the
     /// first): the robot's shapes and moving links (forward kinematics of `rec.q`), the
     /// flange path, `q`, `dq`, `tau` per joint, electrical power per motor, total and grid
-    /// power, cumulative total and grid energy (J, integrated at the full rate up to each
+    /// power, cumulative motor and grid energy (J, integrated at the full rate up to each
     /// displayed row) and the payload mass.
     ///
     /// Fails with [`Error::InvalidInput`] when the recording is empty, its series do not
@@ -67,7 +67,7 @@ impl Viz {
                 (format!("joints/q/q{j}_rad"), &rec.q[i]),
                 (format!("joints/dq/dq{j}_rad_s"), &rec.dq[i]),
                 (format!("joints/tau/tau{j}_Nm"), &rec.tau[i]),
-                (format!("power/joint/p{j}_W"), &rec.p_elec[i]),
+                (format!("power/joint{j}/simulated_W"), &rec.p_elec[i]),
             ];
             for (name, series) in per_joint {
                 self.log_scalars(&entity(prefix, &name), &t, &pick(series))?;
@@ -88,7 +88,7 @@ impl Viz {
         let totals = [
             ("power/total/simulated_W", pick(&rec.p_total)),
             ("power/total/grid_W", pick(&rec.p_grid)),
-            ("energy/total_J", energy(&rec.p_total)),
+            ("energy/simulated_J", energy(&rec.p_total)),
             ("energy/grid_J", energy(&rec.p_grid)),
             ("payload/mass_kg", pick(&rec.payload_mass)),
         ];
@@ -99,8 +99,8 @@ impl Viz {
     }
 
     /// Log measurements under `prefix` at their own rate: encoder positions
-    /// (`measured/q/q{i}_rad`), per-motor power (`measured/power/p{i}_W`) and the meter's total
-    /// power next to the simulated one (`power/total/measured_W`).
+    /// (`measured/q/q{i}_rad`), per-motor power next to the simulated one
+    /// (`power/joint{i}/measured_W`) and the meter's total power (`power/total/measured_W`).
     ///
     /// Fails with [`Error::InvalidInput`] when a series does not have one value per sample
     /// time or the times are not finite.
@@ -121,30 +121,61 @@ impl Viz {
         }
         for (j, (q, p)) in (1..).zip(m.q.iter().zip(&m.p_joint)) {
             self.log_scalars(&entity(prefix, &format!("measured/q/q{j}_rad")), &m.t, q)?;
-            self.log_scalars(&entity(prefix, &format!("measured/power/p{j}_W")), &m.t, p)?;
+            self.log_scalars(
+                &entity(prefix, &format!("power/joint{j}/measured_W")),
+                &m.t,
+                p,
+            )?;
         }
         self.log_scalars(&entity(prefix, "power/total/measured_W"), &m.t, &m.p_total)
     }
 
-    /// Log a predicted total power `p_total_pred` (W) at times `t` (s) under `prefix`, in the
-    /// plot of the simulated total power (`power/total/predicted_W`), at the given rate.
+    /// Log a model's predicted power under `prefix` at times `t` (s, increasing), next to the
+    /// simulated power: per motor `p_joint[i][k]` (W) as `power/joint{i+1}/predicted_W`, their
+    /// sum as `power/total/predicted_W`, and the cumulative predicted energy from `t[0]`
+    /// (trapezoidal rule over `t`, J) as `energy/predicted_J`.
     ///
-    /// Fails with [`Error::InvalidInput`] when the lengths differ or a time is not finite.
-    pub fn log_power_prediction(
-        &self,
-        t: &[f64],
-        p_total_pred: &[f64],
-        prefix: &str,
-    ) -> Result<()> {
+    /// Fails with [`Error::InvalidInput`] when there are no joints, a series does not have
+    /// one value per time, or the times are not finite and increasing.
+    pub fn log_prediction(&self, t: &[f64], p_joint: &[Vec<f64>], prefix: &str) -> Result<()> {
         ensure_finite(t, "prediction t")?;
-        if t.len() != p_total_pred.len() {
+        if t.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(Error::InvalidInput("prediction times must increase".into()));
+        }
+        if p_joint.is_empty() {
+            return Err(Error::InvalidInput(
+                "a prediction needs at least one joint".into(),
+            ));
+        }
+        if let Some(i) = p_joint.iter().position(|p| p.len() != t.len()) {
             return Err(Error::InvalidInput(format!(
-                "{} prediction times but {} powers",
+                "{} prediction times but {} powers for joint {}",
                 t.len(),
-                p_total_pred.len()
+                p_joint[i].len(),
+                i + 1
             )));
         }
-        self.log_scalars(&entity(prefix, "power/total/predicted_W"), t, p_total_pred)
+        let total: Vec<f64> = (0..t.len())
+            .map(|k| p_joint.iter().fold(0.0, |s, p| s + p[k]))
+            .collect();
+        let mut e = 0.0;
+        let energy: Vec<f64> = (0..t.len())
+            .map(|k| {
+                if k > 0 {
+                    e += 0.5 * (total[k - 1] + total[k]) * (t[k] - t[k - 1]);
+                }
+                e
+            })
+            .collect();
+        for (j, p) in (1..).zip(p_joint) {
+            self.log_scalars(
+                &entity(prefix, &format!("power/joint{j}/predicted_W")),
+                t,
+                p,
+            )?;
+        }
+        self.log_scalars(&entity(prefix, "power/total/predicted_W"), t, &total)?;
+        self.log_scalars(&entity(prefix, "energy/predicted_J"), t, &energy)
     }
 
     /// One scalar series on `sim_time` (times in s) as a column.

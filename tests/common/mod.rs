@@ -1,6 +1,9 @@
 //! Shared helpers for the integration tests.
 #![allow(dead_code)]
 
+#[cfg(feature = "viz")]
+pub mod rrd;
+
 use powertwin::Robot;
 use powertwin::dynamics::DriveTerms;
 use powertwin::model::urdf::{LoadOptions, load_file};
