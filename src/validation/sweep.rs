@@ -13,9 +13,9 @@ use crate::trajectory::linear_move::SlowedSegment;
 use crate::trajectory::task::{Scenario, TaskRun};
 use crate::validation::rig::{Progress, Rig};
 
-/// Speeds of the model's fine search for the optimum per load: this many log-spaced speeds
-/// over the grid's range.
-const FINE_SPEEDS: usize = 25;
+/// The model's search for the optimum speed per load stops when its bracket spans less than
+/// this ratio of speeds (golden-section search in log speed).
+const SEARCH_RATIO: f64 = 1.02;
 
 /// One cell of the grid.
 #[derive(Debug, Clone, Serialize)]
@@ -55,8 +55,8 @@ pub struct Optimum {
     /// Minimum of a parabola in log speed through that cell and its neighbours, m/s
     /// (the cell's speed when it is at the edge of the grid).
     pub simulated_interpolated_m_s: f64,
-    /// Speed of least predicted energy over a fine log-spaced search with the model, m/s
-    /// (`null` without a model).
+    /// Speed of least predicted energy, m/s: golden-section search with the model between the
+    /// grid cells around its least predicted cell (`null` without a model).
     pub predicted_m_s: Option<f64>,
     /// Predicted energy there, J.
     #[serde(rename = "predicted_J")]
@@ -207,7 +207,7 @@ pub fn run(
         }
     }
     let optima = loads
-        .iter()
+        .par_iter()
         .map(|&load| optimum(rig, scenario, predictor, &cells, load))
         .collect::<Result<_>>()?;
     let pareto = pareto_front(&cells);
@@ -245,14 +245,16 @@ fn optimum(
     };
     let (predicted_m_s, predicted_j) = match predictor {
         Some(p) => {
-            let (v, e) = fine_search(
-                rig,
-                scenario,
-                p,
-                row[0].speed_m_s,
-                row[row.len() - 1].speed_m_s,
-                load,
-            )?;
+            // Bracket: the grid cells around the model's least predicted energy.
+            let k = (0..row.len())
+                .min_by(|&a, &b| {
+                    let e = |i: usize| row[i].predicted_j.unwrap_or(f64::INFINITY);
+                    e(a).total_cmp(&e(b))
+                })
+                .unwrap_or(best);
+            let lo = row[k.saturating_sub(1)].speed_m_s;
+            let hi = row[(k + 1).min(row.len() - 1)].speed_m_s;
+            let (v, e) = search(rig, scenario, p, lo, hi, load)?;
             (Some(v), Some(e))
         }
         None => (None, None),
@@ -267,9 +269,9 @@ fn optimum(
     })
 }
 
-/// The speed (m/s) of least predicted energy (J) for `load` over log-spaced speeds in
-/// `[lo, hi]`, and that energy.
-fn fine_search(
+/// The speed (m/s) of least predicted energy (J) for `load` in `[lo, hi]`: golden-section
+/// search in log speed down to [`SEARCH_RATIO`], each point planned and predicted.
+fn search(
     rig: &Rig,
     scenario: &Scenario,
     (model, efficiency): Predictor,
@@ -277,28 +279,37 @@ fn fine_search(
     hi: f64,
     load: f64,
 ) -> Result<(f64, f64)> {
-    let fine: Vec<f64> = (0..FINE_SPEEDS)
-        .map(|k| (lo.ln() + (hi / lo).ln() * k as f64 / (FINE_SPEEDS - 1).max(1) as f64).exp())
-        .collect();
-    let energies: Vec<f64> = fine
-        .par_iter()
-        .map(|&v| {
-            let plan = scenario.plan(rig.robot, v, load)?;
-            Ok(model
-                .energy_with_payloads(
-                    rig.robot,
-                    &plan.motion.trajectory,
-                    &plan.events,
-                    efficiency,
-                    rig.twin.physics.dt,
-                )?
-                .motor_j)
-        })
-        .collect::<Result<_>>()?;
-    let k = (0..fine.len())
-        .min_by(|&a, &b| energies[a].total_cmp(&energies[b]))
-        .unwrap_or(0);
-    Ok((fine[k], energies[k]))
+    let energy = |ln_v: f64| -> Result<f64> {
+        let plan = scenario.plan(rig.robot, ln_v.exp(), load)?;
+        Ok(model
+            .energy_with_payloads(
+                rig.robot,
+                &plan.motion.trajectory,
+                &plan.events,
+                efficiency,
+                rig.twin.physics.dt,
+            )?
+            .motor_j)
+    };
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut a, mut b) = (lo.ln(), hi.ln());
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (energy(x1)?, energy(x2)?);
+    while b - a > SEARCH_RATIO.ln() {
+        if f1 <= f2 {
+            b = x2;
+            (x2, f2) = (x1, f1);
+            x1 = b - g * (b - a);
+            f1 = energy(x1)?;
+        } else {
+            a = x1;
+            (x1, f1) = (x2, f2);
+            x2 = a + g * (b - a);
+            f2 = energy(x2)?;
+        }
+    }
+    let (x, f) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
+    Ok((x.exp(), f))
 }
 
 /// The abscissa of the vertex of the parabola through three points (the middle one's when
