@@ -20,7 +20,7 @@ use powertwin::io::write_atomic;
 use powertwin::validation::params::consistency;
 use serde_json::json;
 
-use super::RobotArgs;
+use super::{RobotArgs, read_model};
 
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -277,13 +277,7 @@ pub struct PredictArgs {
 /// Run `predict`.
 pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
-    let text = std::fs::read_to_string(&args.model)
-        .with_context(|| format!("reading {}", args.model.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not valid JSON", args.model.display()))?;
-    let model: PowerModel = serde_json::from_value(v.get("model").cloned().unwrap_or(v))
-        .with_context(|| format!("{}: not a powertwin model", args.model.display()))?;
-    model.check_robot(&robot)?;
+    let model = read_model(&args.model, &robot)?;
     let ds = Dataset::read(&args.data)
         .with_context(|| format!("reading dataset {}", args.data.display()))?;
     let p = prepare(&ds, args.route.route())?;

@@ -39,6 +39,7 @@ use clap::{Args, Parser, Subcommand};
 use powertwin::Robot;
 use powertwin::dataset::meta::Urdf;
 use powertwin::dataset::{Dataset, Format};
+use powertwin::identification::model::PowerModel;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
@@ -221,15 +222,7 @@ impl TwinArgs {
                 None => one,
             });
         }
-        let noise = match self.noise.as_deref() {
-            None => NoiseSettings::default(),
-            Some("none") => NoiseSettings::NONE,
-            Some(path) => {
-                let text =
-                    std::fs::read_to_string(path).with_context(|| format!("reading {path}"))?;
-                NoiseSettings::from_toml_str(&text, path)?
-            }
-        };
+        let noise = noise_settings(self.noise.as_deref())?;
         let twin = TwinConfig {
             physics: PhysicsSettings {
                 dt: self.dt,
@@ -267,6 +260,31 @@ pub fn emit(text: &str) -> Result<()> {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("writing to stdout"),
         _ => Ok(()),
     }
+}
+
+/// Read a model file written by `identify` (or a bare model) for `robot`.
+pub fn read_model(path: &Path, robot: &Robot) -> Result<PowerModel> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not valid JSON", path.display()))?;
+    let model: PowerModel = serde_json::from_value(v.get("model").cloned().unwrap_or(v))
+        .with_context(|| format!("{}: not a powertwin model", path.display()))?;
+    model.check_robot(robot)?;
+    Ok(model)
+}
+
+/// The sensor noise of a `--noise` argument: `None` for the defaults, `none`, or a noise TOML
+/// file.
+pub fn noise_settings(arg: Option<&str>) -> Result<NoiseSettings> {
+    Ok(match arg {
+        None => NoiseSettings::default(),
+        Some("none") => NoiseSettings::NONE,
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("reading {path}"))?;
+            NoiseSettings::from_toml_str(&text, path)?
+        }
+    })
 }
 
 /// Write datasets `(name, dataset)` under `dir` in parallel (each atomically).

@@ -24,7 +24,7 @@ use powertwin::validation::reproduce::{Outcome, Plan, StageTime, run as run_plan
 use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
-use crate::cli::{emit, sweep_name, write_all};
+use crate::cli::{emit, noise_settings, sweep_name, write_all};
 
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);
@@ -85,14 +85,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         "built-in irb1200_7_70.drive.toml",
         &robot,
     )?;
-    let noise = match args.noise.as_deref() {
-        None => NoiseSettings::default(),
-        Some("none") => NoiseSettings::NONE,
-        Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {path}"))?;
-            NoiseSettings::from_toml_str(&text, path)?
-        }
-    };
+    let noise = noise_settings(args.noise.as_deref())?;
     let twin = TwinConfig {
         physics: PhysicsSettings {
             substeps: args.substeps,

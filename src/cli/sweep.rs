@@ -5,15 +5,15 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use powertwin::identification::model::PowerModel;
-use powertwin::report::plot::{Chart, Series, Style, XAxis, write_chart};
+use powertwin::report::figures::energy_chart;
+use powertwin::report::plot::write_chart;
 use powertwin::trajectory::task::Scenario;
 use powertwin::validation::rig::Rig;
 use powertwin::validation::sweep::{self, Sweep};
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{TwinArgs, emit, sweep_name, write_all};
+use crate::cli::{TwinArgs, emit, read_model, sweep_name, write_all};
 
 /// Arguments of `sweep`.
 ///
@@ -74,19 +74,11 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     if !args.loads.is_empty() {
         scenario.sweep.loads_kg = args.loads.clone();
     }
-    let model = match &args.model {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("{}: not valid JSON", path.display()))?;
-            let model: PowerModel = serde_json::from_value(v.get("model").cloned().unwrap_or(v))
-                .with_context(|| format!("{}: not a powertwin model", path.display()))?;
-            model.check_robot(&setup.robot)?;
-            Some(model)
-        }
-        None => None,
-    };
+    let model = args
+        .model
+        .as_deref()
+        .map(|p| read_model(p, &setup.robot))
+        .transpose()?;
     let rig = Rig {
         robot: &setup.robot,
         urdf: setup.urdf.clone(),
@@ -122,7 +114,13 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     };
     let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
     powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
-    write_chart(&chart(&result), &args.out, "energy_vs_speed", 960, 600)?;
+    write_chart(
+        &energy_chart(&result),
+        &args.out,
+        "energy_vs_speed",
+        960,
+        600,
+    )?;
     #[cfg(feature = "viz")]
     if let Some(viz) = &viz {
         viz.log_sweep(
@@ -141,41 +139,6 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         table(&result)
     })?;
     Ok(ExitCode::SUCCESS)
-}
-
-/// Energy against speed per load, simulated and (when predicted) the model's.
-fn chart(result: &Sweep) -> Chart {
-    let mut loads: Vec<f64> = Vec::new();
-    for c in &result.cells {
-        if !loads.contains(&c.load_kg) {
-            loads.push(c.load_kg);
-        }
-    }
-    let log = result.cells.iter().all(|c| c.speed_m_s > 0.0);
-    let mut chart = Chart::new(
-        "Energy per cycle against TCP speed",
-        "TCP speed (m/s)",
-        "Motor energy per cycle (J)",
-    )
-    .with_x_axis(if log { XAxis::Log } else { XAxis::Linear });
-    for load in loads {
-        let cells: Vec<_> = result.cells.iter().filter(|c| c.load_kg == load).collect();
-        chart = chart.with_series(Series::new(
-            format!("twin, load {load} kg"),
-            cells.iter().map(|c| (c.speed_m_s, c.simulated_j)).collect(),
-            Style::LineMarkers,
-        ));
-        let predicted: Vec<(f64, f64)> = cells
-            .iter()
-            .filter_map(|c| c.predicted_j.map(|e| (c.speed_m_s, e)))
-            .collect();
-        if !predicted.is_empty() {
-            chart = chart.with_series(
-                Series::new(format!("model, load {load} kg"), predicted, Style::Line).dashed(),
-            );
-        }
-    }
-    chart
 }
 
 /// The cells as a text table.

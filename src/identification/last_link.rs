@@ -9,7 +9,6 @@
 
 use nalgebra::DVector;
 
-use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::error::{Error, Result};
 use crate::identification::linear::{Observation, rows};
 use crate::identification::lsq::{Estimate, solve};
@@ -21,12 +20,7 @@ use crate::model::inertia::STANDARD_NAMES;
 /// Indices (into `model.theta`) of the base parameters that carry the last link's standard
 /// inertial parameters.
 pub fn affected(robot: &Robot, model: &PowerModel) -> Result<Vec<usize>> {
-    let base = BaseParams::compute(robot, model.layout, &SamplingOptions::default())?;
-    if base.independent() != model.columns.as_slice() {
-        return Err(Error::InvalidInput(
-            "the model's base parameters are not those of this robot".into(),
-        ));
-    }
+    let base = model.base_params(robot)?;
     let last: Vec<String> = STANDARD_NAMES
         .iter()
         .map(|s| format!("{s}{}", robot.dof()))

@@ -127,9 +127,9 @@ impl PowerModel {
         self.with_payload_on(&base, robot, payload, efficiency)
     }
 
-    /// The base-parameter set of `robot` this model is written in (an error if the model's
-    /// columns are not that set).
-    fn base_params(&self, robot: &Robot) -> Result<BaseParams> {
+    /// The base-parameter set of `robot` this model is written in, with its regrouping
+    /// relations. Errors: a model of another robot, or columns that are not that set.
+    pub fn base_params(&self, robot: &Robot) -> Result<BaseParams> {
         self.check_robot(robot)?;
         let base = BaseParams::compute(robot, self.layout, &SamplingOptions::default())?;
         if base.independent() != self.columns.as_slice() {

@@ -4,6 +4,7 @@ use crate::error::Result;
 use crate::model::Robot;
 use crate::report::plot::{Annotation, Chart, Series, Style, XAxis};
 use crate::validation::reproduce::Outcome;
+use crate::validation::sweep::{Sweep, distinct};
 
 /// Charts with their file stem and caption.
 pub struct Figure {
@@ -29,49 +30,43 @@ pub fn figures(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Vec<
     Ok(out)
 }
 
-fn loads(outcome: &Outcome) -> Vec<f64> {
-    let mut loads: Vec<f64> = Vec::new();
-    for c in &outcome.sweep.cells {
-        if !loads.contains(&c.load_kg) {
-            loads.push(c.load_kg);
-        }
+fn energy_vs_speed(outcome: &Outcome) -> Figure {
+    Figure {
+        stem: "energy_vs_speed".into(),
+        caption: "Energy per cycle against TCP speed per load: twin (solid) and identified \
+                  model (dashed), with the model's optimum speed"
+            .into(),
+        chart: energy_chart(&outcome.sweep),
     }
-    loads
 }
 
-fn energy_vs_speed(outcome: &Outcome) -> Figure {
+/// Energy per cycle against TCP speed (log axis) per load: the twin's (solid) and, where
+/// predicted, the model's (dashed), with the model's optimum speeds marked.
+pub fn energy_chart(sweep: &Sweep) -> Chart {
     let mut chart = Chart::new(
-        "Pick and place: energy per cycle against TCP speed",
+        "Energy per cycle against TCP speed",
         "TCP speed (m/s)",
         "Motor energy per cycle (J)",
     )
     .with_x_axis(XAxis::Log);
-    for load in loads(outcome) {
-        let cells: Vec<_> = outcome
-            .sweep
-            .cells
+    for load in distinct(&sweep.cells, |c| c.load_kg) {
+        let cells: Vec<_> = sweep.cells.iter().filter(|c| c.load_kg == load).collect();
+        chart = chart.with_series(Series::new(
+            format!("twin, load {load} kg"),
+            cells.iter().map(|c| (c.speed_m_s, c.simulated_j)).collect(),
+            Style::LineMarkers,
+        ));
+        let predicted: Vec<(f64, f64)> = cells
             .iter()
-            .filter(|c| c.load_kg == load)
+            .filter_map(|c| c.predicted_j.map(|e| (c.speed_m_s, e)))
             .collect();
-        chart = chart
-            .with_series(Series::new(
-                format!("twin, load {load} kg"),
-                cells.iter().map(|c| (c.speed_m_s, c.simulated_j)).collect(),
-                Style::LineMarkers,
-            ))
-            .with_series(
-                Series::new(
-                    format!("model, load {load} kg"),
-                    cells
-                        .iter()
-                        .filter_map(|c| c.predicted_j.map(|e| (c.speed_m_s, e)))
-                        .collect(),
-                    Style::Line,
-                )
-                .dashed(),
+        if !predicted.is_empty() {
+            chart = chart.with_series(
+                Series::new(format!("model, load {load} kg"), predicted, Style::Line).dashed(),
             );
+        }
     }
-    for o in &outcome.sweep.optima {
+    for o in &sweep.optima {
         if let (Some(x), Some(y)) = (o.predicted_m_s, o.predicted_j) {
             chart = chart.with_annotation(Annotation::Point {
                 x,
@@ -80,22 +75,11 @@ fn energy_vs_speed(outcome: &Outcome) -> Figure {
             });
         }
     }
-    Figure {
-        stem: "energy_vs_speed".into(),
-        caption: "Energy per cycle against TCP speed per load: twin (solid) and identified \
-                  model (dashed), with the model's optimum speed"
-            .into(),
-        chart,
-    }
+    chart
 }
 
 fn error_per_cell(outcome: &Outcome) -> Figure {
-    let mut speeds: Vec<f64> = Vec::new();
-    for c in &outcome.sweep.cells {
-        if !speeds.contains(&c.speed_m_s) {
-            speeds.push(c.speed_m_s);
-        }
-    }
+    let speeds = distinct(&outcome.sweep.cells, |c| c.speed_m_s);
     let mut chart = Chart::new(
         "Prediction error per sweep cell",
         "TCP speed (m/s)",
@@ -104,7 +88,7 @@ fn error_per_cell(outcome: &Outcome) -> Figure {
     .with_x_axis(XAxis::Categories(
         speeds.iter().map(|v| format!("{v}")).collect(),
     ));
-    for load in loads(outcome) {
+    for load in distinct(&outcome.sweep.cells, |c| c.load_kg) {
         let values: Vec<f64> = speeds
             .iter()
             .map(|&v| {

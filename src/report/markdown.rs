@@ -44,11 +44,20 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     );
 
     let _ = writeln!(w, "## Table 3: six identification steps (paper's method)\n");
-    let _ = writeln!(
+    header(
         w,
-        "| step | excited joints | cond before -> after | identified | residual W | simulated J | predicted J | error % | paper error % |"
+        &[
+            "step",
+            "excited joints",
+            "cond before -> after",
+            "identified",
+            "residual W",
+            "simulated J",
+            "predicted J",
+            "error %",
+            "paper error %",
+        ],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|");
     for (k, row) in r.table3.iter().enumerate() {
         let _ = writeln!(
             w,
@@ -78,13 +87,13 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
          inertia is negative.\n"
     );
     let n = r.table3.len();
-    let header: Vec<String> = (1..=n).map(|k| format!("step {k}")).collect();
-    let _ = writeln!(
-        w,
-        "| method | {} | max abs % | min eig M kg m^2 | consistent |",
-        header.join(" | ")
-    );
-    let _ = writeln!(w, "|---|{}---|---|---|", "---|".repeat(n));
+    let steps: Vec<String> = (1..=n).map(|k| format!("step {k}")).collect();
+    let cols: Vec<&str> = ["method"]
+        .into_iter()
+        .chain(steps.iter().map(String::as_str))
+        .chain(["max abs %", "min eig M kg m^2", "consistent"])
+        .collect();
+    header(w, &cols);
     for e in &r.estimators {
         let errs: Vec<String> = e.error_pct.iter().map(|x| format!("{x:+.3}")).collect();
         let _ = writeln!(
@@ -142,11 +151,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 format!("; their largest error is {worst_well:.3} %")
             }
         );
-        let _ = writeln!(
+        header(
             w,
-            "| parameter | identified | true | error % | rel. std % |"
+            &["parameter", "identified", "true", "error %", "rel. std %"],
         );
-        let _ = writeln!(w, "|---|---|---|---|---|");
         for p in rows {
             let _ = writeln!(
                 w,
@@ -168,11 +176,19 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
          new data.\n",
         r.best_estimator
     );
-    let _ = writeln!(
+    header(
         w,
-        "| case | payload kg | simulated J | re-identified J | error % | known payload J | error % | paper error % |"
+        &[
+            "case",
+            "payload kg",
+            "simulated J",
+            "re-identified J",
+            "error %",
+            "known payload J",
+            "error %",
+            "paper error %",
+        ],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|");
     for (k, c) in r.table4.iter().enumerate() {
         let _ = writeln!(
             w,
@@ -196,11 +212,19 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
         "Predicted: the `{}` model on the planned motion with the known tool and loads.\n",
         r.best_estimator
     );
-    let _ = writeln!(
+    header(
         w,
-        "| speed m/s | load kg | cycle s | simulated J | grid J | predicted J | error % | slowed segments |"
+        &[
+            "speed m/s",
+            "load kg",
+            "cycle s",
+            "simulated J",
+            "grid J",
+            "predicted J",
+            "error %",
+            "slowed segments",
+        ],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|");
     for c in &r.sweep.cells {
         let _ = writeln!(
             w,
@@ -215,11 +239,18 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             c.slowed.len()
         );
     }
-    let _ = writeln!(
+    let _ = writeln!(w);
+    header(
         w,
-        "\n| load kg | optimal cell m/s | interpolated m/s | model's optimum m/s | its energy J | interior |"
+        &[
+            "load kg",
+            "optimal cell m/s",
+            "interpolated m/s",
+            "model's optimum m/s",
+            "its energy J",
+            "interior",
+        ],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|");
     for o in &r.sweep.optima {
         let _ = writeln!(
             w,
@@ -256,12 +287,19 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             );
         }
     }
-    let _ = writeln!(w, "## Timings\n\n| stage | wall s |\n|---|---|");
+    let _ = writeln!(w, "## Timings\n");
+    header(w, &["stage", "wall s"]);
     for t in &r.timings {
         let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
     }
     let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
     s
+}
+
+/// A Markdown table header: the column names and the separator line.
+fn header(w: &mut String, cols: &[&str]) {
+    let _ = writeln!(w, "| {} |", cols.join(" | "));
+    let _ = writeln!(w, "|{}", "---|".repeat(cols.len()));
 }
 
 /// A formatted optional value, `-` when absent.

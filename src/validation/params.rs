@@ -6,10 +6,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{DriveTerms, Workspace};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
@@ -44,13 +43,7 @@ pub fn table(
     model: &PowerModel,
     estimates: &[&Estimate],
 ) -> Result<Vec<ParamRow>> {
-    model.check_robot(robot)?;
-    let base = BaseParams::compute(robot, model.layout, &SamplingOptions::default())?;
-    if base.independent() != model.columns.as_slice() {
-        return Err(Error::InvalidInput(
-            "the model's base parameters are not those of this robot".into(),
-        ));
-    }
+    let base = model.base_params(robot)?;
     let scale = if model.efficiency_scaled {
         1.0 / drive.nominal_efficiency()
     } else {

@@ -200,13 +200,7 @@ pub fn run(
         datasets.push(d);
         plans.push(p);
     }
-    let mut loads: Vec<f64> = Vec::new();
-    for c in &cells {
-        if !loads.contains(&c.load_kg) {
-            loads.push(c.load_kg);
-        }
-    }
-    let optima = loads
+    let optima = distinct(&cells, |c| c.load_kg)
         .par_iter()
         .map(|&load| optimum(rig, scenario, predictor, &cells, load))
         .collect::<Result<_>>()?;
@@ -218,6 +212,18 @@ pub fn run(
         datasets,
         plans,
     })
+}
+
+/// The distinct values of `key` over `cells` (e.g. the load levels), in order of first
+/// appearance.
+pub fn distinct(cells: &[Cell], key: impl Fn(&Cell) -> f64) -> Vec<f64> {
+    let mut out: Vec<f64> = Vec::new();
+    for c in cells {
+        if !out.contains(&key(c)) {
+            out.push(key(c));
+        }
+    }
+    out
 }
 
 /// The optimum of one load level.

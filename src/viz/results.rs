@@ -6,7 +6,7 @@ use rerun::{BarChart, Points3D, TextDocument, TextLog, TimeColumn};
 use super::{EVENTS_ENTITY, SPEED_TIMELINE, TIMELINE, Viz, entity, path_part, viz_err};
 use crate::error::{Error, Result, ensure_finite};
 use crate::validation::params::ParamRow;
-use crate::validation::sweep::Cell;
+use crate::validation::sweep::{Cell, distinct};
 
 /// Display radius of labelled points, m.
 const POINT_RADIUS_M: f32 = 0.01;
@@ -113,14 +113,8 @@ impl Viz {
     /// timeline [`SPEED_TIMELINE`] (select it in the viewer's time panel to see the plot); and a
     /// Markdown table of the cells (`{root}/table`).
     pub fn log_sweep_cells(&self, root: &str, cells: &[Cell]) -> Result<()> {
-        let mut loads: Vec<f64> = Vec::new();
-        for c in cells {
-            if !loads.contains(&c.load_kg) {
-                loads.push(c.load_kg);
-            }
-        }
         let mm_s = |c: &Cell| (c.speed_m_s * 1000.0).round() as i64;
-        for load in loads {
+        for load in distinct(cells, |c| c.load_kg) {
             let mut row: Vec<&Cell> = cells.iter().filter(|c| c.load_kg == load).collect();
             row.sort_by(|a, b| a.speed_m_s.total_cmp(&b.speed_m_s));
             let x: Vec<i64> = row.iter().map(|c| mm_s(c)).collect();
