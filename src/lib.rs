@@ -21,6 +21,7 @@ pub mod error;
 pub mod identification;
 pub mod io;
 pub mod kinematics;
+pub mod measurement;
 pub mod model;
 pub mod report;
 pub mod trajectory;

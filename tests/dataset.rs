@@ -11,7 +11,7 @@ use arrow_schema::{DataType, Field, Schema};
 use parquet::arrow::ArrowWriter;
 use parquet::file::reader::{FileReader, SerializedFileReader};
 use powertwin::dataset::meta::{
-    BaseParamsInfo, DriveInfo, PayloadEvent, Program, RobotInfo, StandardParams, Summary, Urdf,
+    BaseParamsInfo, DriveInfo, PayloadRecord, Program, RobotInfo, StandardParams, Summary, Urdf,
 };
 use powertwin::dataset::{Dataset, Format, Meta, SCHEMA_VERSION, truth_columns};
 use powertwin::dynamics::ParamLayout;
@@ -126,7 +126,7 @@ fn meta(robot: &Robot, truth: &Recording, measured: &Measured) -> Meta {
         program: Program::current(),
         robot: RobotInfo::new(robot, Urdf::inline(builtin::IRB1200_URDF)),
         drives: DriveInfo::per_joint(robot, &drive),
-        payloads: vec![PayloadEvent::new(0.0, &builtin::payload("tool").unwrap())],
+        payloads: vec![PayloadRecord::new(0.0, &builtin::payload("tool").unwrap())],
         base_params: BaseParamsInfo::new(&base, &theta).unwrap(),
         standard_params: StandardParams::new(&layout, theta).unwrap(),
         twin: TwinConfig {

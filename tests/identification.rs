@@ -301,7 +301,9 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
         states: states.clone(),
         motion: Box::new(traj),
         p_total,
+        signal: powertwin::measurement::PowerSignal::Total,
         p_joint,
+        payloads: Vec::new(),
         excited: vec![1, 4],
         power_averaged: false,
     };
@@ -332,7 +334,7 @@ fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
     use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
     use powertwin::identification::model::PowerModel;
     use powertwin::model::builtin;
-    use powertwin::twin::PayloadEvent;
+    use powertwin::model::payload::PayloadEvent;
     let robot = common::irb1200();
     let layout = ParamLayout::new(&robot, true, true);
     let mut model = PowerModel::new(&robot, layout, false).unwrap();

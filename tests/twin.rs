@@ -10,7 +10,8 @@ use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::trajectory::Trajectory;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings, measure};
-use powertwin::twin::{PayloadEvent, Twin, TwinConfig};
+use powertwin::model::payload::PayloadEvent;
+use powertwin::twin::{Twin, TwinConfig};
 
 /// Each joint swings `a (1 - cos w t)` around a bent-arm pose; rest at t = 0.
 struct Swing {

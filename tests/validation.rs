@@ -14,7 +14,7 @@ use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::attach;
 use powertwin::trajectory::random::{RandomFourierOptions, random_fourier};
-use powertwin::twin::PayloadEvent;
+use powertwin::model::payload::PayloadEvent;
 use powertwin::validation::params::{consistency, table};
 
 fn drive(robot: &Robot) -> Drive {

@@ -135,7 +135,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         .iter()
         .zip(&args.data)
         .map(|(ds, d)| {
-            let mut p = prepare(ds, args.route.route())
+            let mut p = prepare(&ds.log(&d.display().to_string())?, args.route.route())
                 .with_context(|| format!("preparing {}", d.display()))?;
             if args.min_speed > 0.0 {
                 let dropped = p.drop_slow_samples(args.min_speed)?;
@@ -280,7 +280,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let model = read_model(&args.model, &robot)?;
     let ds = Dataset::read(&args.data)
         .with_context(|| format!("reading dataset {}", args.data.display()))?;
-    let p = prepare(&ds, args.route.route())?;
+    let p = prepare(&ds.log(&args.data.display().to_string())?, args.route.route())?;
     let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3)?;
     let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
         .iter()

@@ -9,7 +9,7 @@ use clap::Args;
 use powertwin::dataset::generate::{RunSpec, simulate};
 use powertwin::io::table::Table;
 use powertwin::trajectory::sampled::Sampled;
-use powertwin::twin::PayloadEvent;
+use powertwin::model::payload::PayloadEvent;
 use serde_json::json;
 
 use super::TwinArgs;

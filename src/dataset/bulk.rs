@@ -33,7 +33,8 @@ use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
 use crate::twin::sensor::SensorSettings;
-use crate::twin::{PayloadEvent, RunReport, TwinConfig};
+use crate::model::payload::PayloadEvent;
+use crate::twin::{RunReport, TwinConfig};
 
 /// Which items of the global set a process produces: those with `index % count == shard`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

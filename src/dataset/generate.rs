@@ -2,7 +2,7 @@
 
 use crate::dataset::Dataset;
 use crate::dataset::meta::{
-    BaseParamsInfo, DriveInfo, Meta, PayloadEvent, Program, RobotInfo, SCHEMA_VERSION,
+    BaseParamsInfo, DriveInfo, Meta, PayloadRecord, Program, RobotInfo, SCHEMA_VERSION,
     StandardParams, Summary, Urdf,
 };
 use crate::dynamics::base_params::{BaseParams, SamplingOptions};
@@ -24,7 +24,7 @@ pub struct RunSpec<'a> {
     /// True drive parameters.
     pub drive: &'a Drive,
     /// Payload timeline (sorted by time).
-    pub events: &'a [twin::PayloadEvent],
+    pub events: &'a [crate::model::payload::PayloadEvent],
     /// Physics, controller and motor settings.
     pub twin: TwinConfig,
     /// Logger settings.
@@ -55,7 +55,7 @@ pub fn simulate(spec: &RunSpec) -> Result<(Dataset, RunReport)> {
         program: Program::current(),
         robot: RobotInfo::new(robot, spec.urdf.clone()),
         drives: DriveInfo::per_joint(robot, spec.drive),
-        payloads: spec.events.iter().map(PayloadEvent::of).collect(),
+        payloads: spec.events.iter().map(PayloadRecord::of).collect(),
         base_params: BaseParamsInfo::new(&base, &theta)?,
         standard_params: StandardParams::new(&layout, theta)?,
         twin: spec.twin.clone(),

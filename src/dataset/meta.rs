@@ -57,7 +57,7 @@ pub struct Meta {
     pub drives: Vec<DriveInfo>,
     /// Payloads attached to the flange, in time order; each applies from its `t_s` until the
     /// next one (an empty list means no payload throughout).
-    pub payloads: Vec<PayloadEvent>,
+    pub payloads: Vec<PayloadRecord>,
     /// True standard parameters of the robot links (without payload) and drives.
     pub standard_params: StandardParams,
     /// True base parameters derived from [`Meta::standard_params`].
@@ -213,7 +213,7 @@ impl DriveInfo {
 /// A payload attached from time `t_s` on, in the flange frame `tool0`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PayloadEvent {
+pub struct PayloadRecord {
     /// Time from which the payload is attached, s.
     pub t_s: f64,
     /// Display name.
@@ -228,12 +228,12 @@ pub struct PayloadEvent {
     pub tcp_m: Option<[f64; 3]>,
 }
 
-impl PayloadEvent {
+impl PayloadRecord {
     /// The twin's event: `payload` attached from `t_s` (s) on, or nothing (`None`, mass 0).
-    pub fn of(event: &crate::twin::PayloadEvent) -> Self {
+    pub fn of(event: &crate::model::payload::PayloadEvent) -> Self {
         match &event.payload {
             Some(p) => Self::new(event.t_s, p),
-            None => PayloadEvent {
+            None => PayloadRecord {
                 t_s: event.t_s,
                 name: "none".into(),
                 mass_kg: 0.0,
@@ -244,11 +244,43 @@ impl PayloadEvent {
         }
     }
 
+    /// The event this record describes (mass 0: nothing on the flange). Errors
+    /// ([`Error::InvalidInput`]): a negative or non-finite mass or time, or mass properties
+    /// that are not physically consistent.
+    pub fn event(&self) -> Result<crate::model::payload::PayloadEvent> {
+        use crate::model::RigidInertia;
+        use nalgebra::Vector3;
+        if !(self.t_s.is_finite() && self.mass_kg.is_finite() && self.mass_kg >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "payload '{}': t_s = {} s and mass_kg = {} kg must be finite, the mass >= 0",
+                self.name, self.t_s, self.mass_kg
+            )));
+        }
+        let payload = if self.mass_kg == 0.0 {
+            None
+        } else {
+            let inertia =
+                RigidInertia::new(self.mass_kg, Vector3::from(self.com_m), self.inertia_kgm2);
+            inertia
+                .validate(&format!("payload '{}'", self.name))
+                .map_err(|e| Error::InvalidInput(e.to_string()))?;
+            Some(Payload {
+                name: self.name.clone(),
+                inertia,
+                tcp: self.tcp_m.map(Vector3::from),
+            })
+        };
+        Ok(crate::model::payload::PayloadEvent {
+            t_s: self.t_s,
+            payload,
+        })
+    }
+
     /// `payload` attached from `t_s` (s) on.
     pub fn new(t_s: f64, payload: &Payload) -> Self {
         let b = &payload.inertia;
         let i = &b.inertia_com;
-        PayloadEvent {
+        PayloadRecord {
             t_s,
             name: payload.name.clone(),
             mass_kg: b.mass,

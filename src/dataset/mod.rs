@@ -32,6 +32,7 @@ pub use columns::{measured_columns, truth_columns};
 pub use meta::{Meta, SCHEMA_VERSION};
 
 use crate::error::{Error, Result};
+use crate::measurement::Log;
 use crate::twin::record::{Measured, Recording};
 
 /// Name of the metadata file.
@@ -187,6 +188,30 @@ impl Dataset {
             meta,
             truth,
             measured,
+        })
+    }
+
+    /// What a user of the robot would have of this run: the logged stream (positions, total
+    /// power of the kind the logger recorded, per-motor power) and the known payload
+    /// timeline; no truth. Errors: a payload record that is not physical.
+    pub fn log(&self, source: &str) -> Result<Log> {
+        let m = &self.measured;
+        Ok(Log {
+            source: source.to_string(),
+            robot: Some(self.meta.robot.name.clone()),
+            t_s: m.t.clone(),
+            q_rad: m.q.clone(),
+            dq_rad_s: None,
+            power_w: m.p_total.clone(),
+            signal: self.meta.measurement.power_signal,
+            motor_power_w: Some(m.p_joint.clone()),
+            power_averaged: self.meta.measurement.power_averaging,
+            payloads: self
+                .meta
+                .payloads
+                .iter()
+                .map(|p| p.event())
+                .collect::<Result<_>>()?,
         })
     }
 

@@ -1,9 +1,10 @@
-//! From a logged dataset to regressor inputs: states at the sample times, the observations,
-//! and a continuous motion for energy integrals. Only the measured stream is used (joint
-//! positions and powers); the dataset's truth and true parameters are never read here.
+//! From a measured [`Log`] to regressor inputs: states at the sample times, the observations,
+//! and a continuous motion for energy integrals. Only what a user has is used (time stamps,
+//! joint positions and powers, known payloads): a [`Log`] cannot reach a twin's truth.
 
-use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::measurement::{Log, PowerSignal};
+use crate::model::payload::PayloadEvent;
 use crate::identification::fourier_fit::fit_fourier;
 use crate::identification::states::{States, from_fourier, from_smoothing};
 use crate::trajectory::Trajectory;
@@ -39,10 +40,14 @@ pub struct Prepared {
     pub states: States,
     /// A continuous motion through them (for energy integrals and predictions).
     pub motion: Box<dyn Trajectory>,
-    /// Total motor power at the samples, W.
+    /// Measured power of the arm at the samples (of the kind `signal`), W.
     pub p_total: Vec<f64>,
-    /// Per-motor power, sample-major `[m * n + i]`, W.
+    /// What `p_total` is.
+    pub signal: PowerSignal,
+    /// Per-motor power, sample-major `[m * n + i]`, W (empty when not logged).
     pub p_joint: Vec<f64>,
+    /// Known payloads at the flange, sorted by time.
+    pub payloads: Vec<PayloadEvent>,
     /// Joints that move (range of the logged position above [`EXCITED_RANGE`]), 0-based.
     pub excited: Vec<usize>,
     /// Whether the logger averaged power over each sample period.
@@ -73,34 +78,35 @@ impl Prepared {
         let dropped = self.states.len() - keep.len();
         self.states = self.states.select(&keep);
         self.p_total = keep.iter().map(|&m| self.p_total[m]).collect();
-        self.p_joint = keep
-            .iter()
-            .flat_map(|&m| (0..n).map(move |i| m * n + i))
-            .map(|k| self.p_joint[k])
-            .collect();
+        if !self.p_joint.is_empty() {
+            self.p_joint = keep
+                .iter()
+                .flat_map(|&m| (0..n).map(move |i| m * n + i))
+                .map(|k| self.p_joint[k])
+                .collect();
+        }
         Ok(dropped)
     }
 }
 
-/// Prepare the measured stream of `ds` along `route`.
-pub fn prepare(ds: &Dataset, route: Route) -> Result<Prepared> {
-    let m = &ds.measured;
-    let n = m.q.len();
+/// Prepare the log along `route`.
+pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
+    log.validate()?;
+    let t = &log.t_s;
+    let q = &log.q_rad;
+    let n = q.len();
     let states = match route {
         Route::Fourier {
             base_freq_hz,
             harmonics,
-        } => from_fourier(
-            &fit_fourier(&m.t, &m.q, base_freq_hz, harmonics)?.series,
-            &m.t,
-        ),
-        Route::Smoothing { window, degree } => from_smoothing(&m.t, &m.q, window, degree)?,
+        } => from_fourier(&fit_fourier(t, q, base_freq_hz, harmonics)?.series, t),
+        Route::Smoothing { window, degree } => from_smoothing(t, q, window, degree)?,
     };
     let motion: Box<dyn Trajectory> = match route {
         Route::Fourier {
             base_freq_hz,
             harmonics,
-        } => Box::new(fit_fourier(&m.t, &m.q, base_freq_hz, harmonics)?.series),
+        } => Box::new(fit_fourier(t, q, base_freq_hz, harmonics)?.series),
         Route::Smoothing { .. } => Box::new(Sampled::new(
             states.t.clone(),
             states.q.clone(),
@@ -110,7 +116,7 @@ pub fn prepare(ds: &Dataset, route: Route) -> Result<Prepared> {
     };
     let excited: Vec<usize> = (0..n)
         .filter(|&i| {
-            let (lo, hi) = m.q[i]
+            let (lo, hi) = q[i]
                 .iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
                     (a.min(*v), b.max(*v))
@@ -123,15 +129,20 @@ pub fn prepare(ds: &Dataset, route: Route) -> Result<Prepared> {
             "no joint moves in this dataset: nothing to identify".into(),
         ));
     }
-    let p_joint = (0..m.t.len())
-        .flat_map(|k| (0..n).map(move |i| m.p_joint[i][k]))
-        .collect();
+    let p_joint = match &log.motor_power_w {
+        Some(p) => (0..t.len())
+            .flat_map(|k| (0..n).map(move |i| p[i][k]))
+            .collect(),
+        None => Vec::new(),
+    };
     Ok(Prepared {
         states,
         motion,
-        p_total: m.p_total.clone(),
+        p_total: log.power_w.clone(),
+        signal: log.signal,
         p_joint,
+        payloads: log.payloads.clone(),
         excited,
-        power_averaged: ds.meta.measurement.power_averaging,
+        power_averaged: log.power_averaged,
     })
 }

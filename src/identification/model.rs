@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
-use crate::twin::PayloadEvent;
+use crate::model::payload::PayloadEvent;
 
 /// Base-parameter power model of one robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -43,6 +43,15 @@ pub struct Payload {
     pub tcp: Option<Vector3<f64>>,
 }
 
+/// A payload change at a time: from `t_s` on, the flange carries `payload` (`None` = bare).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PayloadEvent {
+    /// Event time, s.
+    pub t_s: f64,
+    /// What the flange carries from then on (tool and load combined).
+    pub payload: Option<Payload>,
+}
+
 /// The TOML file as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

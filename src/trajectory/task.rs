@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::model::builtin;
 use crate::model::payload::Payload;
-use crate::twin::PayloadEvent;
+use crate::model::payload::PayloadEvent;
 
 use super::linear_move::{self, LinearMotion, LinearMoveOptions, ViaPose};
 

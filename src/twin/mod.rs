@@ -20,22 +20,13 @@ use serde::{Deserialize, Serialize};
 use crate::dynamics::DriveTerms;
 use crate::error::{Error, Result};
 use crate::model::drive::Drive;
-use crate::model::payload::Payload;
+use crate::model::payload::{Payload, PayloadEvent};
 use crate::model::{RigidInertia, Robot};
 use crate::trajectory::Trajectory;
 use controller::{Controller, Gains, perturbed};
 use motor::MotorModel;
 use physics::{PhysicsSettings, RapierRobot};
 use record::Recording;
-
-/// A payload change at a time: from `t_s` on, the flange carries `payload` (`None` = bare).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PayloadEvent {
-    /// Event time, s.
-    pub t_s: f64,
-    /// What the flange carries from then on (tool and load combined).
-    pub payload: Option<Payload>,
-}
 
 /// Settings of a twin run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

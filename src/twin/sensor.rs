@@ -4,7 +4,8 @@
 //! - joint positions from encoders: quantised to `encoder_resolution_rad`, plus Gaussian
 //!   noise `encoder_sigma_rad`;
 //! - per-motor electrical power plus Gaussian noise `joint_power_sigma_W`;
-//! - total motor power from a power meter: Gaussian noise `power_sigma_W` plus a constant
+//! - the arm's power from a power meter (the motor sum, or the DC bus clipped at zero:
+//!   `power_signal`): Gaussian noise `power_sigma_W` plus a constant
 //!   offset `power_offset_W`.
 //!
 //! Truth row `k` holds the power over `[t_k, t_k + dt)`. Power is sampled instantaneously at
@@ -19,6 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::measurement::PowerSignal;
 use crate::twin::record::{Measured, Recording};
 
 /// Sensor noise. All zero means ideal sensors.
@@ -97,6 +99,10 @@ pub struct SensorSettings {
     pub rate_hz: f64,
     /// Average power over each sample period instead of sampling it instantaneously.
     pub power_averaging: bool,
+    /// What the power meter measures: the motor sum (`total`, RobotStudio's signal) or the
+    /// DC bus (`bus`: the sum clipped at zero, braking energy burnt in the brake resistor).
+    #[serde(default)]
+    pub power_signal: PowerSignal,
     /// Sensor noise.
     pub noise: NoiseSettings,
     /// Seed of the noise.
@@ -108,6 +114,7 @@ impl Default for SensorSettings {
         SensorSettings {
             rate_hz: 10.0,
             power_averaging: false,
+            power_signal: PowerSignal::Total,
             noise: NoiseSettings::default(),
             seed: 0,
         }
@@ -171,7 +178,12 @@ pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
             let p = rec.p_elec[i][window.clone()].iter().sum::<f64>() / len;
             m.p_joint[i].push(p + noise.joint_power_sigma_w * gauss(&mut rng));
         }
-        let p = rec.p_total[window].iter().sum::<f64>() / len;
+        let signal = if s.power_signal.clipped() {
+            &rec.p_grid
+        } else {
+            &rec.p_total
+        };
+        let p = signal[window].iter().sum::<f64>() / len;
         m.p_total
             .push(p + noise.power_offset_w + noise.power_sigma_w * gauss(&mut rng));
     }

@@ -15,7 +15,7 @@ use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::payload::Payload;
 use crate::trajectory::Trajectory;
-use crate::twin::PayloadEvent;
+use crate::model::payload::PayloadEvent;
 use crate::validation::rig::{Progress, Rig};
 
 /// One row of Table 4.
@@ -85,7 +85,7 @@ pub fn run(
                 "case": name,
             });
             let ds = rig.run(traj, &events, 100 + c as u64, description)?;
-            let prepared = prepare(&ds, route)?;
+            let prepared = prepare(&ds.log("twin run")?, route)?;
             let (reidentified, estimate) =
                 reidentify(robot, linear, &prepared.states, &prepared.p_total)
                     .map_err(|e| Error::InvalidInput(format!("case '{name}': {e}")))?;

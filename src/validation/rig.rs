@@ -8,7 +8,8 @@ use crate::model::Robot;
 use crate::model::drive::Drive;
 use crate::trajectory::Trajectory;
 use crate::twin::sensor::SensorSettings;
-use crate::twin::{PayloadEvent, TwinConfig};
+use crate::model::payload::PayloadEvent;
+use crate::twin::TwinConfig;
 
 /// Robot, true drives, twin and logger settings of an experiment.
 #[derive(Debug, Clone)]

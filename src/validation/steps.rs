@@ -116,7 +116,7 @@ pub fn run(rig: &Rig, opts: &StepsOptions, progress: &dyn Progress) -> Result<St
     };
     let mut data = Vec::with_capacity(n);
     for (joints, _, ds) in &runs {
-        let p = prepare(ds, route)?;
+        let p = prepare(&ds.log("twin run")?, route)?;
         let mut states = p.states;
         hold_still(&mut states, joints);
         data.push(StepData {

@@ -12,7 +12,7 @@ use crate::identification::model::PowerModel;
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
-use crate::twin::PayloadEvent;
+use crate::model::payload::PayloadEvent;
 use crate::validation::reproduce::{Outcome, Plan};
 use crate::validation::sweep::{Cell, Predictor, Sweep};
 

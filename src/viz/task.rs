@@ -12,7 +12,7 @@ use crate::model::Robot;
 use crate::model::payload::Payload;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
-use crate::twin::PayloadEvent;
+use crate::model::payload::PayloadEvent;
 
 /// Radius of the planned TCP path line, m.
 const TCP_PATH_RADIUS_M: f32 = 0.0015;
