@@ -141,6 +141,7 @@ fn meta(robot: &Robot, truth: &Recording, measured: &Measured) -> Meta {
         measurement: SensorSettings {
             rate_hz: measured.rate_hz,
             power_averaging: false,
+            power_signal: powertwin::measurement::PowerSignal::Total,
             noise: NoiseSettings {
                 power_offset_w: 3.0,
                 ..NoiseSettings::default()

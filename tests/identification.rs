@@ -300,6 +300,7 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
     let mut p = Prepared {
         states: states.clone(),
         motion: Box::new(traj),
+        motion_t0_s: 0.0,
         p_total,
         signal: powertwin::measurement::PowerSignal::Total,
         p_joint,

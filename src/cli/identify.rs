@@ -1,22 +1,26 @@
 //! `powertwin identify` and `powertwin predict`: parameters from motor power, and the energy
 //! the identified model predicts.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
+use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
 use powertwin::identification::data::{Prepared, Route, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
+use powertwin::identification::fit::{Estimator, FitOptions, identify_logs};
 use powertwin::identification::linear::{self, Observation};
-use powertwin::identification::lsq::Estimate;
+use powertwin::identification::model::DATASHEET_EFFICIENCY;
 use powertwin::identification::model::PowerModel;
-use powertwin::identification::pmsm;
-use powertwin::identification::states::States;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
+use powertwin::measurement::Log;
+use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
+use powertwin::validation::estimators::MIN_SPEED;
+use powertwin::validation::heldout::LOG_ROUTE;
 use powertwin::validation::params::consistency;
 use serde_json::json;
 
@@ -25,9 +29,12 @@ use super::{RobotArgs, read_model};
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
+    /// The estimator chosen by cross-validation (leave one log out, or time blocks) among
+    /// `total` and `pmsm`; known payloads enter through the base relations.
+    Auto,
     /// The paper: step by step from total power, datasets in step order (joint 6, 5-6, ...).
     PaperSteps,
-    /// All base parameters at once from total power.
+    /// All base parameters at once from total power (linear, no copper loss).
     Total,
     /// From the power of each motor (eq. 13).
     PerJoint,
@@ -35,15 +42,14 @@ pub enum Method {
     Energy,
     /// PMSM losses too (copper and standby, nonlinear least squares).
     Pmsm,
-    /// Classic torque least squares (reference; uses the logged joint torques).
-    Torque,
 }
 
 /// How the logged positions are differentiated.
 #[derive(Debug, Args)]
 pub struct RouteArgs {
     /// Base frequency of a periodic excitation, Hz: fit the Fourier series (the paper's route).
-    /// Without it, positions are smoothed with a local polynomial.
+    /// Without it, a local quartic through 5 samples differentiates the positions (any
+    /// motion).
     #[arg(long)]
     base_freq: Option<f64>,
     /// Harmonics of the Fourier fit.
@@ -58,11 +64,38 @@ impl RouteArgs {
                 base_freq_hz: f,
                 harmonics: self.harmonics,
             },
-            None => Route::Smoothing {
-                window: 9,
-                degree: 4,
-            },
+            None => LOG_ROUTE,
         }
+    }
+}
+
+/// Known payloads of the logs (override what a dataset records).
+#[derive(Debug, Args)]
+pub struct PayloadArgs {
+    /// Payload at the flange throughout: a built-in name (tool, load_1kg, load_2kg,
+    /// load_4kg) or a payload TOML file; repeat to combine (--payload tool --payload load_2kg).
+    #[arg(long, value_name = "NAME|PATH")]
+    payload: Vec<String>,
+    /// Payload timeline TOML (`[[event]] t_s = .., payload = "tool+load_2kg"` or "none"),
+    /// times on the log's clock.
+    #[arg(long, value_name = "FILE", conflicts_with = "payload")]
+    payload_events: Option<PathBuf>,
+}
+
+impl PayloadArgs {
+    /// The timeline the arguments give, or `None` to keep the log's own.
+    fn events(&self) -> Result<Option<Vec<PayloadEvent>>> {
+        if let Some(path) = &self.payload_events {
+            return Ok(Some(timeline_from_file(path)?));
+        }
+        if self.payload.is_empty() {
+            return Ok(None);
+        }
+        let spec = self.payload.join("+");
+        Ok(Some(vec![PayloadEvent {
+            t_s: f64::NEG_INFINITY,
+            payload: Some(resolve(&spec, Path::new("."))?),
+        }]))
     }
 }
 
@@ -75,154 +108,174 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
     data: Vec<PathBuf>,
     /// Identification method.
-    #[arg(long, value_enum, default_value = "total")]
+    #[arg(long, value_enum, default_value = "auto")]
     method: Method,
     #[command(flatten)]
     route: RouteArgs,
-    /// Drop samples at which an excited joint moves slower than this, rad/s (around velocity
-    /// reversals the Coulomb sign is uncertain and stiction holds the joint). 0 keeps all.
-    #[arg(long, default_value_t = 0.0, value_name = "RAD_S")]
-    min_speed: f64,
-    /// Output model file (JSON: base parameters, losses, statistics).
+    #[command(flatten)]
+    payloads: PayloadArgs,
+    /// Samples at which an excited joint moves slower than this (rad/s) are not fitted on
+    /// (around velocity reversals the Coulomb sign is uncertain and stiction holds the joint)
+    /// [default: 0.05 for auto, total and pmsm; 0 for the others].
+    #[arg(long, value_name = "RAD_S")]
+    min_speed: Option<f64>,
+    /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
 }
 
-/// Concatenate the states of several datasets.
-fn concat(prepared: &[Prepared]) -> States {
-    let n = prepared[0].states.q.len();
-    let mut s = States {
-        t: Vec::new(),
-        q: vec![Vec::new(); n],
-        dq: vec![Vec::new(); n],
-        ddq: vec![Vec::new(); n],
-    };
-    for p in prepared {
-        s.t.extend_from_slice(&p.states.t);
-        for i in 0..n {
-            s.q[i].extend_from_slice(&p.states.q[i]);
-            s.dq[i].extend_from_slice(&p.states.dq[i]);
-            s.ddq[i].extend_from_slice(&p.states.ddq[i]);
-        }
-    }
-    s
+/// Read the datasets' logs for `robot`, with the payload timeline of `payloads` when given.
+fn read_logs(data: &[PathBuf], robot: &Robot, payloads: &PayloadArgs) -> Result<Vec<Log>> {
+    let events = payloads.events()?;
+    data.iter()
+        .map(|d| {
+            let ds =
+                Dataset::read(d).with_context(|| format!("reading dataset {}", d.display()))?;
+            if ds.meta.robot.name != robot.name() || ds.meta.robot.dof != robot.dof() {
+                bail!(
+                    "dataset {} is from robot '{}' ({} joints), not '{}' ({} joints)",
+                    d.display(),
+                    ds.meta.robot.name,
+                    ds.meta.robot.dof,
+                    robot.name(),
+                    robot.dof()
+                );
+            }
+            let mut log = ds.log(&d.display().to_string())?;
+            if let Some(e) = &events {
+                log.payloads = e.clone();
+            }
+            Ok(log)
+        })
+        .collect()
 }
 
 /// Run `identify`.
 pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
-    let mut datasets = Vec::new();
-    for d in &args.data {
-        let ds = Dataset::read(d).with_context(|| format!("reading dataset {}", d.display()))?;
-        if ds.meta.robot.name != robot.name() || ds.meta.robot.dof != robot.dof() {
-            bail!(
-                "dataset {} is from robot '{}' ({} joints), not '{}' ({} joints)",
-                d.display(),
-                ds.meta.robot.name,
-                ds.meta.robot.dof,
-                robot.name(),
-                robot.dof()
-            );
-        }
-        datasets.push(ds);
-    }
-    if args.min_speed > 0.0 && args.method == Method::Energy {
+    let logs = read_logs(&args.data, &robot, &args.payloads)?;
+    let fitted = matches!(args.method, Method::Auto | Method::Total | Method::Pmsm);
+    let min_speed = args
+        .min_speed
+        .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
+    if min_speed > 0.0 && args.method == Method::Energy {
         bail!(
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    let prepared: Vec<Prepared> = datasets
-        .iter()
-        .zip(&args.data)
-        .map(|(ds, d)| {
-            let mut p = prepare(&ds.log(&d.display().to_string())?, args.route.route())
-                .with_context(|| format!("preparing {}", d.display()))?;
-            if args.min_speed > 0.0 {
-                let dropped = p.drop_slow_samples(args.min_speed)?;
-                eprintln!(
-                    "{}: {dropped} samples with an excited joint below {} rad/s dropped",
-                    d.display(),
-                    args.min_speed
-                );
-            }
-            Ok(p)
-        })
-        .collect::<Result<_>>()?;
+    if !fitted
+        && logs
+            .iter()
+            .any(|l| l.payloads.iter().any(|e| e.payload.is_some()))
+    {
+        bail!(
+            "method {:?} does not take known payloads; use --method auto, total or pmsm for data recorded with a payload",
+            args.method
+        );
+    }
+    let route = args.route.route();
     let layout = ParamLayout::new(&robot, true, true);
-    let scaled = !matches!(args.method, Method::Pmsm | Method::Torque);
-    let mut model = PowerModel::new(&robot, layout, scaled)?;
-    let estimates: Vec<Estimate> = match args.method {
-        Method::Total | Method::PerJoint | Method::Torque => {
-            let states = concat(&prepared);
-            let (kind, y): (Observation, Vec<f64>) = match args.method {
-                Method::Total => (
-                    Observation::TotalPower,
-                    prepared.iter().flat_map(|p| p.p_total.clone()).collect(),
-                ),
-                Method::PerJoint => (
-                    Observation::JointPower,
-                    prepared.iter().flat_map(|p| p.p_joint.clone()).collect(),
-                ),
-                _ => {
-                    let n = robot.dof();
-                    let mut tau = Vec::new();
-                    for ds in &datasets {
-                        let stride = ds.meta.measurement.stride(ds.truth.dt)?;
-                        for k in 0..ds.measured.t.len() {
-                            tau.extend((0..n).map(|i| ds.truth.tau[i][k * stride]));
-                        }
-                    }
-                    (Observation::Torque, tau)
+    let (model, estimates, cv) = if fitted {
+        let candidates = match args.method {
+            Method::Total => vec![Estimator::Total],
+            Method::Pmsm => vec![Estimator::Pmsm],
+            _ => vec![Estimator::Total, Estimator::Pmsm],
+        };
+        let opts = FitOptions {
+            min_speed,
+            candidates,
+            ..FitOptions::default()
+        };
+        let sel = identify_logs(&robot, &logs, &[route], &opts)?;
+        for c in &sel.scores {
+            eprintln!(
+                "cross-validation {}: mean-power error {:.3} W, power RMSE {:.3} W over {} held-out pieces",
+                c.estimator.name(),
+                c.mean_power_rms_w,
+                c.power_rmse_w,
+                c.pieces
+            );
+        }
+        (sel.fit.model, vec![sel.fit.estimate], sel.scores)
+    } else {
+        let prepared: Vec<Prepared> = logs
+            .iter()
+            .map(|l| {
+                let mut p = prepare(l, route).with_context(|| format!("preparing {}", l.source))?;
+                if min_speed > 0.0 {
+                    let dropped = p.drop_slow_samples(min_speed)?;
+                    eprintln!(
+                        "{}: {dropped} samples with an excited joint below {min_speed} rad/s dropped",
+                        l.source
+                    );
                 }
-            };
-            vec![linear::identify(&robot, &mut model, &states, kind, &y)?]
-        }
-        Method::Pmsm => {
-            let states = concat(&prepared);
-            let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_total.clone()).collect();
-            vec![pmsm::identify(&robot, &mut model, &states, &y)?]
-        }
-        Method::Energy => {
-            let energies: Vec<Vec<f64>> = prepared
-                .iter()
-                .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
-                .collect();
-            let windows: Vec<Windows> = prepared
-                .iter()
-                .zip(&energies)
-                .map(|(p, e)| Windows {
-                    motion: p.motion.as_ref(),
-                    t: &p.states.t,
-                    energy: e,
-                })
-                .collect();
-            vec![energy::identify(&robot, &mut model, &windows)?]
-        }
-        Method::PaperSteps => {
-            let data: Vec<StepData> = prepared
-                .into_iter()
-                .map(|p| {
-                    let mut states = p.states;
-                    hold_still(&mut states, &p.excited);
-                    StepData {
-                        joints: p.excited,
-                        states,
-                        p_total: p.p_total,
-                    }
-                })
-                .collect();
-            steps::identify(&robot, &mut model, &data)?
-                .into_iter()
-                .map(|r| r.estimate)
-                .collect()
-        }
+                Ok(p)
+            })
+            .collect::<Result<_>>()?;
+        let mut model = PowerModel::new(&robot, layout, true)?;
+        let estimates = match args.method {
+            Method::PerJoint => {
+                let mut states = prepared[0].states.clone();
+                for p in &prepared[1..] {
+                    states.append(&p.states)?;
+                }
+                let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_joint.clone()).collect();
+                if y.len() != states.len() * robot.dof() {
+                    bail!("per-joint identification needs the power of every motor in every log");
+                }
+                vec![linear::identify(
+                    &robot,
+                    &mut model,
+                    &states,
+                    Observation::JointPower,
+                    &y,
+                )?]
+            }
+            Method::Energy => {
+                let energies: Vec<Vec<f64>> = prepared
+                    .iter()
+                    .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
+                    .collect();
+                let windows: Vec<Windows> = prepared
+                    .iter()
+                    .zip(&energies)
+                    .map(|(p, e)| Windows {
+                        motion: p.motion.as_ref(),
+                        t: &p.states.t,
+                        energy: e,
+                    })
+                    .collect();
+                vec![energy::identify(&robot, &mut model, &windows)?]
+            }
+            _ => {
+                let data: Vec<StepData> = prepared
+                    .into_iter()
+                    .map(|p| {
+                        let mut states = p.states;
+                        hold_still(&mut states, &p.excited);
+                        StepData {
+                            joints: p.excited,
+                            states,
+                            p_total: p.p_total,
+                        }
+                    })
+                    .collect();
+                steps::identify(&robot, &mut model, &data)?
+                    .into_iter()
+                    .map(|r| r.estimate)
+                    .collect()
+            }
+        };
+        model.signal = logs[0].signal;
+        (model, estimates, Vec::new())
     };
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
     let consistency = consistency(&robot, &model, 1.0, 200, 1)?;
     let out = json!({
-        "method": format!("{:?}", args.method),
+        "method": format!("{:?}", args.method).to_lowercase(),
         "model": model,
         "estimates": estimates,
+        "cross_validation": cv,
         "consistency": consistency,
     });
     write_atomic(&args.out, serde_json::to_string_pretty(&out)?.as_bytes())
@@ -261,7 +314,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
 pub struct PredictArgs {
     #[command(flatten)]
     robot: RobotArgs,
-    /// Model file written by `identify`.
+    /// Model file written by `identify` (or `reproduce`'s model.json).
     #[arg(long, value_name = "MODEL.json")]
     model: PathBuf,
     /// Dataset to predict.
@@ -269,6 +322,8 @@ pub struct PredictArgs {
     data: PathBuf,
     #[command(flatten)]
     route: RouteArgs,
+    #[command(flatten)]
+    payloads: PayloadArgs,
     /// Machine-readable JSON instead of text.
     #[arg(long)]
     json: bool,
@@ -278,38 +333,59 @@ pub struct PredictArgs {
 pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let model = read_model(&args.model, &robot)?;
-    let ds = Dataset::read(&args.data)
-        .with_context(|| format!("reading dataset {}", args.data.display()))?;
-    let p = prepare(&ds.log(&args.data.display().to_string())?, args.route.route())?;
-    let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3)?;
+    let mut logs = read_logs(std::slice::from_ref(&args.data), &robot, &args.payloads)?;
+    let log = logs.remove(0);
+    let ds = Dataset::read(&args.data)?;
+    let p = prepare(&log, args.route.route())?;
+    let events = p.motion_events();
+    let pred = model.predict(
+        &robot,
+        p.motion.as_ref(),
+        &events,
+        DATASHEET_EFFICIENCY,
+        1e-3,
+    )?;
     let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
         .iter()
         .sum();
-    let simulated = ds.meta.summary.energy_total_j;
-    let mut ws = powertwin::dynamics::Workspace::new(&robot);
-    let mut w = nalgebra::DMatrix::zeros(robot.dof(), model.layout.len());
-    let n = robot.dof();
-    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut se = 0.0;
-    for m in 0..p.states.len() {
-        p.states.at(m, &mut q, &mut dq, &mut ddq);
-        let pp = model.power(&robot, &mut ws, &mut w, &q, &dq, &ddq);
-        se += (pp - p.p_total[m]).powi(2);
-    }
+    // The twin's truth, for scoring only: the energy of the logged signal.
+    let simulated = if model.signal.clipped() {
+        ds.meta.summary.energy_grid_j
+    } else {
+        ds.meta.summary.energy_total_j
+    };
+    let t: Vec<f64> = p.states.t.iter().map(|t| t - p.motion_t0_s).collect();
+    let power =
+        model.power_with_payloads(&robot, p.motion.as_ref(), &events, DATASHEET_EFFICIENCY, &t)?;
+    let se: f64 = power
+        .iter()
+        .zip(&p.p_total)
+        .map(|(pp, y)| {
+            let pp = if model.signal.clipped() {
+                pp.max(0.0)
+            } else {
+                *pp
+            };
+            (pp - y).powi(2)
+        })
+        .sum();
     let rmse = (se / p.states.len() as f64).sqrt();
     let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
+    let predicted = pred.energy_j;
     if args.json {
         super::emit(&format!(
             "{}\n",
             serde_json::to_string_pretty(&json!({
-                "predicted_J": predicted, "simulated_J": simulated, "measured_J": measured,
+                "predicted_J": predicted, "interval_95_J": pred.interval_j,
+                "simulated_J": simulated, "measured_J": measured,
                 "error_vs_simulated_pct": pct(predicted, simulated), "error_vs_measured_pct": pct(predicted, measured),
-                "power_rmse_W": rmse,
+                "power_rmse_W": rmse, "power_signal": model.signal.name(),
             }))?
         ))?;
     } else {
         super::emit(&format!(
-            "predicted {predicted:.2} J, simulated {simulated:.2} J ({:+.3} %), measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W\n",
+            "predicted {predicted:.2} ± {:.2} J (95 %), simulated {simulated:.2} J ({:+.3} %), measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W\n",
+            pred.interval_j,
             pct(predicted, simulated),
             pct(predicted, measured)
         ))?;

@@ -28,6 +28,7 @@ mod progress;
 mod reproduce;
 mod simulate;
 mod sweep;
+mod validate;
 #[cfg(feature = "viz")]
 mod viz;
 
@@ -40,14 +41,15 @@ use powertwin::Robot;
 use powertwin::dataset::meta::Urdf;
 use powertwin::dataset::{Dataset, Format};
 use powertwin::identification::model::PowerModel;
+use powertwin::measurement::PowerSignal;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
 use powertwin::model::urdf::{LoadOptions, load_file, load_str};
-use powertwin::twin::TwinConfig;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::twin::{Fidelity, TwinConfig};
 use powertwin::validation::sweep::Cell;
 use rayon::prelude::*;
 
@@ -78,8 +80,10 @@ enum Command {
     Excite(excite::ExciteArgs),
     /// Identify base parameters (and motor losses) from the power in datasets.
     Identify(identify::IdentifyArgs),
-    /// Predict the energy of a dataset's motion with an identified model.
+    /// Predict the energy of a dataset's motion with an identified model (95 % interval).
     Predict(identify::PredictArgs),
+    /// Judge an identified model on held-out motions run on the twin (out of sample).
+    Validate(validate::ValidateArgs),
     /// Run the Rapier twin along a trajectory and write a ground-truth dataset.
     Simulate(simulate::SimulateArgs),
     /// Run a task scenario (default: the paper's pick and place) over speeds and loads on the
@@ -157,9 +161,8 @@ pub struct TwinArgs {
     /// Motor model: pmsm (P_mech + c tau^2 + P0) or efficiency (P_mech / eta, the paper's eq. 9).
     #[arg(long, default_value = "pmsm")]
     motor: MotorModel,
-    /// Relative error of the controller's nominal model (0: the controller knows the true model).
-    #[arg(long, default_value_t = 0.0)]
-    nominal_error: f64,
+    #[command(flatten)]
+    truth: TruthArgs,
     /// Sample rate of the measured stream, Hz (a whole number of physics steps per sample).
     #[arg(long, default_value_t = 10.0)]
     sample_rate: f64,
@@ -176,6 +179,43 @@ pub struct TwinArgs {
     /// Table format of the dataset.
     #[arg(long, default_value = "parquet")]
     format: Format,
+}
+
+/// How close the twin is to the identified model's structure.
+#[derive(Debug, Args)]
+pub struct TruthArgs {
+    /// Twin fidelity. `realistic`: the drives' unmodelled effects (Stribeck and
+    /// load-dependent gear friction in the physics, iron loss; see the drive file), a
+    /// controller whose nominal model is 10 % wrong, and DC-bus power (braking energy burnt
+    /// in the brake resistor). `exact`: the structure an identified model has, the
+    /// controller knows the true model, the motor sum is measured.
+    #[arg(long, default_value = "realistic", value_name = "exact|realistic")]
+    pub truth: Fidelity,
+    /// Relative error of the controller's nominal model [default: 0.1 realistic, 0 exact].
+    #[arg(long, value_name = "REL")]
+    pub nominal_error: Option<f64>,
+    /// What the power meter measures: `total` (motor sum, RobotStudio's signal) or `bus`
+    /// (DC bus, never negative) [default: bus realistic, total exact].
+    #[arg(long, value_name = "total|bus")]
+    pub power_signal: Option<PowerSignal>,
+}
+
+impl TruthArgs {
+    /// The controller's nominal-model error.
+    pub fn nominal_error(&self) -> f64 {
+        self.nominal_error.unwrap_or(match self.truth {
+            Fidelity::Realistic => 0.1,
+            Fidelity::Exact => 0.0,
+        })
+    }
+
+    /// The logged power signal.
+    pub fn power_signal(&self) -> PowerSignal {
+        self.power_signal.unwrap_or(match self.truth {
+            Fidelity::Realistic => PowerSignal::Bus,
+            Fidelity::Exact => PowerSignal::Total,
+        })
+    }
 }
 
 /// A loaded twin setup.
@@ -195,6 +235,11 @@ pub struct Setup {
 }
 
 impl TwinArgs {
+    /// Table format of the datasets.
+    pub fn format(&self) -> Format {
+        self.format
+    }
+
     /// Load and validate everything.
     pub fn setup(&self) -> Result<Setup> {
         let robot = self.robot.load()?;
@@ -229,14 +274,16 @@ impl TwinArgs {
                 substeps: self.substeps,
             },
             motor: self.motor,
-            nominal_error: self.nominal_error,
+            nominal_error: self.truth.nominal_error(),
             nominal_seed: self.noise_seed,
+            fidelity: self.truth.truth,
             ..TwinConfig::default()
         };
         twin.physics.validate()?;
         let sensor = SensorSettings {
             rate_hz: self.sample_rate,
             power_averaging: self.power_averaging,
+            power_signal: self.truth.power_signal(),
             noise,
             seed: self.noise_seed,
         };
@@ -270,7 +317,9 @@ pub fn read_model(path: &Path, robot: &Robot) -> Result<PowerModel> {
         .with_context(|| format!("{}: not valid JSON", path.display()))?;
     let model: PowerModel = serde_json::from_value(v.get("model").cloned().unwrap_or(v))
         .with_context(|| format!("{}: not a powertwin model", path.display()))?;
-    model.check_robot(robot)?;
+    model
+        .validate(robot)
+        .with_context(|| format!("checking {}", path.display()))?;
     Ok(model)
 }
 
@@ -315,6 +364,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Excite(a) => excite::run(&a),
         Command::Identify(a) => identify::run_identify(&a),
         Command::Predict(a) => identify::run_predict(&a),
+        Command::Validate(a) => validate::run(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Sweep(a) => sweep::run(&a),
         Command::Dataset(a) => dataset::run(&a),

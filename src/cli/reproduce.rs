@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use powertwin::dataset::Format;
 use powertwin::dataset::meta::Urdf;
+use powertwin::identification::model::DATASHEET_EFFICIENCY;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::urdf::{LoadOptions, load_str};
@@ -24,7 +25,7 @@ use powertwin::validation::reproduce::{Outcome, Plan, StageTime, run as run_plan
 use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
-use crate::cli::{emit, noise_settings, sweep_name, write_all};
+use crate::cli::{TruthArgs, emit, noise_settings, sweep_name, write_all};
 
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);
@@ -53,6 +54,8 @@ pub struct ReproduceArgs {
     /// paper's eq. 9, under which a payload does not change the energy of a closed cycle).
     #[arg(long, default_value = "pmsm")]
     motor: MotorModel,
+    #[command(flatten)]
+    truth: TruthArgs,
     /// Sensor noise: a noise TOML file, or `none` [default: encoder 6e-6 rad steps + 1e-5 rad
     /// noise, 0.5 W per motor, 1 W on the total power].
     #[arg(long, value_name = "PATH|none")]
@@ -92,6 +95,8 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             ..PhysicsSettings::default()
         },
         motor: args.motor,
+        nominal_error: args.truth.nominal_error(),
+        fidelity: args.truth.truth,
         ..TwinConfig::default()
     };
     twin.physics.validate()?;
@@ -102,6 +107,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         twin,
         sensor: SensorSettings {
             noise,
+            power_signal: args.truth.power_signal(),
             ..SensorSettings::default()
         },
     };
@@ -120,7 +126,17 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
 
     let writing = Instant::now();
     write_datasets(&outcome, &args.out.join("datasets"), args.format)?;
-    let figs = figures(&robot, &outcome, drive.nominal_efficiency())?;
+    let model_json = serde_json::json!({
+        "method": outcome.model_name(),
+        "model": &outcome.model,
+        "estimates": [&outcome.idset.selection.fit.estimate],
+        "cross_validation": &outcome.idset.selection.scores,
+    });
+    powertwin::io::write_atomic(
+        &args.out.join("model.json"),
+        serde_json::to_string_pretty(&model_json)?.as_bytes(),
+    )?;
+    let figs = figures(&robot, &outcome, DATASHEET_EFFICIENCY)?;
     let plots_dir = args.out.join("plots");
     std::fs::create_dir_all(&plots_dir)
         .with_context(|| format!("creating {}", plots_dir.display()))?;
@@ -142,7 +158,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             &robot,
             &plan,
             &outcome,
-            drive.nominal_efficiency(),
+            DATASHEET_EFFICIENCY,
             powertwin::viz::DEFAULT_DISPLAY_HZ,
         )?;
         viz.flush()?;
@@ -154,6 +170,8 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let settings = Settings {
         robot: robot.name().to_string(),
         motor_model: args.motor.name().to_string(),
+        truth: format!("{:?}", args.truth.truth).to_lowercase(),
+        power_signal: rig.sensor.power_signal.name().to_string(),
         dt_s: rig.twin.physics.dt,
         substeps: rig.twin.physics.substeps,
         sample_rate_hz: rig.sensor.rate_hz,
@@ -177,6 +195,17 @@ fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
     for (k, ds) in outcome.steps.datasets.iter().enumerate() {
         all.push((format!("table3_step{}", k + 1), ds));
     }
+    for (k, ds) in outcome.idset.datasets.iter().enumerate() {
+        all.push((format!("identification_{}", k + 1), ds));
+    }
+    for (m, ds) in outcome
+        .heldout
+        .motions
+        .iter()
+        .zip(&outcome.heldout_datasets)
+    {
+        all.push((format!("heldout_{:02}_{}", m.index, m.kind), ds));
+    }
     for (row, ds) in outcome.cases.rows.iter().zip(&outcome.cases.datasets) {
         all.push((format!("table4_{}", powertwin::io::slug(&row.case)), ds));
     }
@@ -189,6 +218,34 @@ fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
 /// What the terminal shows at the end.
 fn summary(r: &Results, out: &Path) -> String {
     let mut o = String::new();
+    let h = &r.heldout;
+    outln!(
+        o,
+        "Held-out benchmark ({} motions no identification saw), model {}:",
+        h.motions.len(),
+        r.model.name
+    );
+    for (name, s) in [
+        ("from the log ", &h.from_log),
+        ("from the plan", &h.from_plan),
+        ("baseline     ", &h.baseline),
+    ] {
+        outln!(
+            o,
+            "  {name}: energy error median {:.3} %, worst {:.3} %; above standby worst {:.3} %; 95 % interval coverage {:.0} %",
+            s.energy_error_pct.median,
+            s.energy_error_pct.worst,
+            s.above_standby_error_pct.worst,
+            s.coverage_pct
+        );
+    }
+    outln!(
+        o,
+        "  power RMSE worst {:.2} W (baseline {:.1} W)",
+        h.power_rmse_w.worst,
+        h.baseline_power_rmse_w.worst
+    );
+    outln!(o, "In-sample (each predicted on its own fitting data):");
     outln!(
         o,
         "Table 3 (paper's six steps on the twin), energy error %:"
@@ -199,14 +256,9 @@ fn summary(r: &Results, out: &Path) -> String {
     for e in &r.estimators {
         outln!(
             o,
-            "estimator {}: worst step error {:.3} %{}",
+            "estimator {}: worst step error {:.3} %",
             e.method,
-            e.max_abs_error_pct,
-            if e.method == r.best_estimator {
-                " (best)"
-            } else {
-                ""
-            }
+            e.max_abs_error_pct
         );
     }
     outln!(
@@ -255,7 +307,7 @@ fn summary(r: &Results, out: &Path) -> String {
     };
     outln!(
         o,
-        "Wrote {}/report.md, results.json{recording}, plots/ and datasets/ in {:.1} s.",
+        "Wrote {}/report.md, results.json, model.json{recording}, plots/ and datasets/ in {:.1} s.",
         out.display(),
         r.total_wall_s
     );

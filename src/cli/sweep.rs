@@ -90,7 +90,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     #[cfg(feature = "viz")]
     let viz = args.viz.open(None)?;
     let bars = Bars::new();
-    let efficiency = setup.drive.nominal_efficiency();
+    let efficiency = powertwin::identification::model::DATASHEET_EFFICIENCY;
     let result = sweep::run(
         &rig,
         &scenario,

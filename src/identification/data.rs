@@ -3,10 +3,10 @@
 //! joint positions and powers, known payloads): a [`Log`] cannot reach a twin's truth.
 
 use crate::error::{Error, Result};
-use crate::measurement::{Log, PowerSignal};
-use crate::model::payload::PayloadEvent;
 use crate::identification::fourier_fit::fit_fourier;
 use crate::identification::states::{States, from_fourier, from_smoothing};
+use crate::measurement::{Log, PowerSignal};
+use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::trajectory::sampled::Sampled;
 
@@ -14,6 +14,12 @@ use crate::trajectory::sampled::Sampled;
 /// tracking error of a joint held still while the others move (below 1e-3 rad on the twin),
 /// well below any excitation's amplitude.
 pub const EXCITED_RANGE: f64 = 0.01;
+
+/// Joint speed (rad/s) below which a smoothed joint counts as standing still: its velocity
+/// and acceleration are set to zero, so that Coulomb friction (whose sign the noise would
+/// otherwise flip) and its copper loss are not predicted for a joint held by stiction. Ten
+/// times the velocity noise that 1e-5 rad of encoder noise gives at 10 Hz.
+pub const REST_SPEED: f64 = 1e-3;
 
 /// How positions become velocities and accelerations.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -38,8 +44,11 @@ pub enum Route {
 pub struct Prepared {
     /// States at the measured sample times.
     pub states: States,
-    /// A continuous motion through them (for energy integrals and predictions).
+    /// A continuous motion through them (for energy integrals and predictions); its time 0
+    /// is log time `motion_t0_s`.
     pub motion: Box<dyn Trajectory>,
+    /// Log time (s) at the motion's time 0.
+    pub motion_t0_s: f64,
     /// Measured power of the arm at the samples (of the kind `signal`), W.
     pub p_total: Vec<f64>,
     /// What `p_total` is.
@@ -55,6 +64,17 @@ pub struct Prepared {
 }
 
 impl Prepared {
+    /// The known payload timeline in the motion's time (for predictions along `motion`).
+    pub fn motion_events(&self) -> Vec<PayloadEvent> {
+        self.payloads
+            .iter()
+            .map(|e| PayloadEvent {
+                t_s: e.t_s - self.motion_t0_s,
+                payload: e.payload.clone(),
+            })
+            .collect()
+    }
+
     /// Drop the samples at which an excited joint moves slower than `min_speed` (rad/s):
     /// around velocity reversals the sign of the Coulomb term is uncertain and the twin's
     /// stiction holds the joint, so those samples bias the friction estimates. Returns how many
@@ -100,7 +120,18 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             base_freq_hz,
             harmonics,
         } => from_fourier(&fit_fourier(t, q, base_freq_hz, harmonics)?.series, t),
-        Route::Smoothing { window, degree } => from_smoothing(t, q, window, degree)?,
+        Route::Smoothing { window, degree } => {
+            let mut s = from_smoothing(t, q, window, degree)?;
+            for i in 0..n {
+                for m in 0..s.len() {
+                    if s.dq[i][m].abs() < REST_SPEED {
+                        s.dq[i][m] = 0.0;
+                        s.ddq[i][m] = 0.0;
+                    }
+                }
+            }
+            s
+        }
     };
     let motion: Box<dyn Trajectory> = match route {
         Route::Fourier {
@@ -135,9 +166,14 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             .collect(),
         None => Vec::new(),
     };
+    let motion_t0_s = match route {
+        Route::Fourier { .. } => 0.0,
+        Route::Smoothing { .. } => t[0],
+    };
     Ok(Prepared {
         states,
         motion,
+        motion_t0_s,
         p_total: log.power_w.clone(),
         signal: log.signal,
         p_joint,

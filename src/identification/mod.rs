@@ -3,6 +3,7 @@
 
 pub mod data;
 pub mod energy;
+pub mod fit;
 pub mod fourier_fit;
 pub mod last_link;
 pub mod linear;

@@ -14,10 +14,17 @@ use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
+use crate::measurement::PowerSignal;
 use crate::model::Robot;
+use crate::model::payload::PayloadEvent;
 use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
-use crate::model::payload::PayloadEvent;
+
+/// The motor efficiency a user takes from a data sheet when nothing better is known: the
+/// middle of the paper's 83–92 % (Liu et al. 2018). Used to add a known payload to an
+/// efficiency-scaled model (the paper's method cannot separate the efficiency) and by the
+/// no-identification baseline; never read from a twin's drives.
+pub const DATASHEET_EFFICIENCY: f64 = 0.87;
 
 /// Base-parameter power model of one robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -41,6 +48,18 @@ pub struct PowerModel {
     /// identifiable from total power, stored on joint 1).
     #[serde(rename = "constant_W")]
     pub constant: Vec<f64>,
+    /// The power signal modelled: a clipped one (DC bus, grid) is `max(P, 0)` of the motor
+    /// sum `P`.
+    #[serde(default)]
+    pub signal: PowerSignal,
+    /// Covariance of `z = [theta, copper, P0]` from the fit, row-major, `(nb + n + 1)^2`
+    /// entries (units: squares of the parameters'); empty when unknown.
+    #[serde(default)]
+    pub covariance: Vec<f64>,
+    /// Standard deviation of the mean-power error on motions the model was not fitted on
+    /// that its parameter covariance does not explain (cross-validated), W.
+    #[serde(default, rename = "structure_sigma_W")]
+    pub structure_sigma: f64,
 }
 
 impl PowerModel {
@@ -56,7 +75,71 @@ impl PowerModel {
             efficiency_scaled,
             copper: vec![0.0; robot.dof()],
             constant: vec![0.0; robot.dof()],
+            signal: PowerSignal::Total,
+            covariance: Vec::new(),
+            structure_sigma: 0.0,
         })
+    }
+
+    /// Check a model read from a file against `robot`: the robot, the vector lengths, finite
+    /// values, and a covariance of the right size. Errors name the field.
+    pub fn validate(&self, robot: &Robot) -> Result<()> {
+        self.check_robot(robot)?;
+        let n = robot.dof();
+        let nb = self.columns.len();
+        let bad = |m: String| Error::InvalidInput(format!("model file: {m}"));
+        if self.layout.len()
+            != ParamLayout::new(robot, self.layout.friction, self.layout.armature).len()
+        {
+            return Err(bad("the parameter layout does not match the robot".into()));
+        }
+        if self.names.len() != nb || self.theta.len() != nb {
+            return Err(bad(format!(
+                "{} names and {} values for {nb} base parameters",
+                self.names.len(),
+                self.theta.len()
+            )));
+        }
+        if let Some(c) = self.columns.iter().find(|&&c| c >= self.layout.len()) {
+            return Err(bad(format!(
+                "column {c} is outside the {}-column layout",
+                self.layout.len()
+            )));
+        }
+        for (what, v, len) in [
+            ("copper_W_per_Nm2", &self.copper, n),
+            ("constant_W", &self.constant, n),
+        ] {
+            if v.len() != len {
+                return Err(bad(format!(
+                    "{what} has {} entries for {len} joints",
+                    v.len()
+                )));
+            }
+        }
+        let np = nb + n + 1;
+        if !self.covariance.is_empty() && self.covariance.len() != np * np {
+            return Err(bad(format!(
+                "covariance has {} entries, expected {np}^2 = {}",
+                self.covariance.len(),
+                np * np
+            )));
+        }
+        for (what, v) in [
+            ("theta", &self.theta),
+            ("copper_W_per_Nm2", &self.copper),
+            ("constant_W", &self.constant),
+            ("covariance", &self.covariance),
+        ] {
+            crate::error::ensure_finite(v, what).map_err(|e| bad(e.to_string()))?;
+        }
+        if !(self.structure_sigma.is_finite() && self.structure_sigma >= 0.0) {
+            return Err(bad(format!(
+                "structure_sigma_W = {} must be finite and >= 0",
+                self.structure_sigma
+            )));
+        }
+        Ok(())
     }
 
     /// Check that the model belongs to `robot`.
@@ -91,12 +174,7 @@ impl PowerModel {
     /// Predicted power of motor `i` (0-based), W: `dq_i tau_i + c_i tau_i^2 + P0_i` with
     /// `tau_i` from row `i` of the regressor `w` already evaluated at the state.
     fn joint_power(&self, w: &DMatrix<f64>, i: usize, dq_i: f64) -> f64 {
-        let tau: f64 = self
-            .columns
-            .iter()
-            .zip(&self.theta)
-            .map(|(&c, th)| w[(i, c)] * th)
-            .sum();
+        let tau = self.torque(w, i);
         dq_i * tau + self.copper[i] * tau * tau + self.constant[i]
     }
 
@@ -153,6 +231,31 @@ impl PowerModel {
                 "efficiency {efficiency} must be in (0, 1]"
             )));
         }
+        let scale = if self.efficiency_scaled {
+            1.0 / efficiency
+        } else {
+            1.0
+        };
+        let mut model = self.clone();
+        for (t, d) in model
+            .theta
+            .iter_mut()
+            .zip(self.payload_delta(base, robot, payload)?)
+        {
+            *t += scale * d;
+        }
+        Ok(model)
+    }
+
+    /// The change of the base parameters (SI, not scaled by 1/eta) when `payload` is
+    /// attached to the flange: the last link's standard parameters grow by the payload's,
+    /// mapped through the regrouping relations of `base`.
+    pub fn payload_delta(
+        &self,
+        base: &BaseParams,
+        robot: &Robot,
+        payload: &Payload,
+    ) -> Result<Vec<f64>> {
         let last = robot.dof() - 1;
         let before = robot.standard_params()[last];
         let after = attach(robot, payload)?.standard_params()[last];
@@ -161,16 +264,7 @@ impl PowerModel {
         for (k, (a, b)) in after.iter().zip(&before).enumerate() {
             delta[start + k] = a - b;
         }
-        let scale = if self.efficiency_scaled {
-            1.0 / efficiency
-        } else {
-            1.0
-        };
-        let mut model = self.clone();
-        for (t, d) in model.theta.iter_mut().zip(base.base_values(&delta)?) {
-            *t += scale * d;
-        }
-        Ok(model)
+        base.base_values(&delta)
     }
 
     /// Predicted energy of following `traj` while the flange carries the payloads of
@@ -216,8 +310,8 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<f64>> {
         let mut total = Vec::with_capacity(t.len());
-        self.each_state(robot, traj, events, efficiency, t, |p| {
-            total.push(p.iter().fold(0.0, |s, pi| s + pi));
+        self.each_state(robot, traj, events, efficiency, t, |e| {
+            total.push(e.p.iter().fold(0.0, |s, pi| s + pi));
         })?;
         Ok(total)
     }
@@ -235,16 +329,16 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<Vec<f64>>> {
         let mut joints = vec![Vec::with_capacity(t.len()); robot.dof()];
-        self.each_state(robot, traj, events, efficiency, t, |p| {
-            for (series, pi) in joints.iter_mut().zip(p) {
+        self.each_state(robot, traj, events, efficiency, t, |e| {
+            for (series, pi) in joints.iter_mut().zip(e.p) {
                 series.push(*pi);
             }
         })?;
         Ok(joints)
     }
 
-    /// Call `f` with the predicted power of each motor (W) at each time of `t`, with the
-    /// payload model in force then.
+    /// Call `f` with each state's evaluation at the times `t`, with the payload model in
+    /// force then.
     fn each_state(
         &self,
         robot: &Robot,
@@ -252,7 +346,7 @@ impl PowerModel {
         events: &[PayloadEvent],
         efficiency: f64,
         t: &[f64],
-        mut f: impl FnMut(&[f64]),
+        mut f: impl FnMut(&StateEval),
     ) -> Result<()> {
         self.check_robot(robot)?;
         let base = (!events.is_empty())
@@ -282,10 +376,123 @@ impl PowerModel {
             for (i, pi) in p.iter_mut().enumerate() {
                 *pi = model.joint_power(&w, i, dq[i]);
             }
-            f(&p);
+            f(&StateEval {
+                p: &p,
+                w: &w,
+                dq: &dq,
+                model,
+            });
         }
         Ok(())
     }
+
+    /// Predicted energy of the modelled signal (J) along `traj` with the payloads of
+    /// `events` (as in [`PowerModel::energy_with_payloads`]), with its 95 % interval: the
+    /// parameter covariance propagated through the energy (which is linear in the base
+    /// parameters) plus the cross-validated structure error over the motion's duration.
+    /// `dt`: integration step, s.
+    pub fn predict(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        dt: f64,
+    ) -> Result<Prediction> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "integration step {dt} s must be positive"
+            )));
+        }
+        let n = robot.dof();
+        let nb = self.columns.len();
+        let np = nb + n + 1;
+        let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
+        let h = traj.duration() / steps as f64;
+        let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
+        let clipped = self.signal.clipped();
+        let (mut motor, mut grid) = (0.0, 0.0);
+        let mut g = vec![0.0; np];
+        let mut k = 0usize;
+        self.each_state(robot, traj, events, efficiency, &t, |e| {
+            let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
+            k += 1;
+            let total: f64 = e.p.iter().sum();
+            motor += weight * total;
+            grid += weight * total.max(0.0);
+            if clipped && total < 0.0 {
+                return;
+            }
+            for i in 0..n {
+                let tau = e.model.torque(e.w, i);
+                let dp_dtau = e.dq[i] + 2.0 * e.model.copper[i] * tau;
+                for (kk, &c) in self.columns.iter().enumerate() {
+                    g[kk] += weight * dp_dtau * e.w[(i, c)];
+                }
+                g[nb + i] += weight * tau * tau;
+            }
+            g[np - 1] += weight;
+        })?;
+        let param_var = if self.covariance.len() == np * np {
+            let cov = DMatrix::from_row_slice(np, np, &self.covariance);
+            let g = nalgebra::DVector::from_column_slice(&g);
+            (g.transpose() * cov * &g)[(0, 0)].max(0.0)
+        } else {
+            0.0
+        };
+        let duration = traj.duration();
+        let sigma = (param_var + (self.structure_sigma * duration).powi(2)).sqrt();
+        Ok(Prediction {
+            energy_j: if clipped { grid } else { motor },
+            interval_j: 1.96 * sigma,
+            motor_j: motor,
+            grid_j: grid,
+            duration_s: duration,
+        })
+    }
+
+    /// Joint torque of motor `i` (N m, or N m / eta when efficiency-scaled) from row `i` of
+    /// the regressor `w` already evaluated at the state.
+    fn torque(&self, w: &DMatrix<f64>, i: usize) -> f64 {
+        self.columns
+            .iter()
+            .zip(&self.theta)
+            .map(|(&c, th)| w[(i, c)] * th)
+            .sum()
+    }
+}
+
+/// One state evaluated by [`PowerModel::each_state`].
+struct StateEval<'a> {
+    /// Predicted power of each motor, W.
+    p: &'a [f64],
+    /// Full regressor at the state.
+    w: &'a DMatrix<f64>,
+    /// Joint speeds, rad/s.
+    dq: &'a [f64],
+    /// The model in force (with the payload then attached).
+    model: &'a PowerModel,
+}
+
+/// An energy prediction with its uncertainty.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Prediction {
+    /// Predicted energy of the modelled signal (the motor sum, or the DC bus / grid power
+    /// clipped at zero), J.
+    #[serde(rename = "energy_J")]
+    pub energy_j: f64,
+    /// Half-width of the 95 % interval of `energy_j`, J.
+    #[serde(rename = "interval_95_J")]
+    pub interval_j: f64,
+    /// Integral of the predicted motor sum, J (regenerated energy counts negative).
+    #[serde(rename = "motor_J")]
+    pub motor_j: f64,
+    /// Integral of `max(P, 0)`, J.
+    #[serde(rename = "grid_J")]
+    pub grid_j: f64,
+    /// Duration of the motion, s.
+    #[serde(rename = "duration_s")]
+    pub duration_s: f64,
 }
 
 /// Predicted energy of a motion.

@@ -153,10 +153,13 @@ impl Log {
         }
         if self
             .payloads
-            .windows(2)
-            .any(|w| !(w[1].t_s >= w[0].t_s) || !w[0].t_s.is_finite())
+            .iter()
+            .any(|e| !e.t_s.is_finite() && e.t_s != f64::NEG_INFINITY)
+            || self.payloads.windows(2).any(|w| w[1].t_s < w[0].t_s)
         {
-            return Err(bad("payload events must be finite and sorted by time".into()));
+            return Err(bad(
+                "payload events must be finite and sorted by time".into()
+            ));
         }
         Ok(())
     }

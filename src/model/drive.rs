@@ -21,6 +21,13 @@
 //! standby_W = 4.0
 //! coulomb_Nm = 10.0                   # optional; default: the URDF <dynamics friction>
 //! viscous_Nms_per_rad = 8.0           # optional; default: the URDF <dynamics damping>
+//! # Optional effects that identified models do not have ([`Unmodelled`]; default 0 / none),
+//! # applied only by a twin run with realistic fidelity:
+//! iron_hysteresis_W_per_rad_s = 0.9   # iron loss k_h |dq|
+//! iron_eddy_W_s2_per_rad2 = 0.36      # iron loss k_e dq^2
+//! stribeck_static_Nm = 12.5           # static friction (>= coulomb_Nm) at rest
+//! stribeck_speed_rad_s = 0.05         # Stribeck velocity
+//! gear_friction_per_Nm = 0.02         # extra Coulomb friction per N m of transmitted torque
 //! ```
 //! Unknown keys, missing or repeated joints and out-of-range values are errors that name the
 //! file, the joint and the key.
@@ -48,6 +55,52 @@ pub struct JointDrive {
     pub standby_power: f64,
     /// Coulomb (N m) and viscous (N m s/rad) friction at the link side.
     pub friction: Friction,
+    /// Effects beyond the identified model's structure (a realistic twin applies them).
+    pub unmodelled: Unmodelled,
+}
+
+/// Drive effects that the identified power model does not represent, so that a twin using
+/// them is richer than any model identified from it (as a real robot is). Link side.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Unmodelled {
+    /// Hysteresis iron loss `k_h |dq|`, W/(rad/s).
+    pub iron_hysteresis: f64,
+    /// Eddy-current iron loss `k_e dq^2`, W/(rad/s)^2.
+    pub iron_eddy: f64,
+    /// Static friction at rest, N m (Stribeck: `fc + (fs - fc) exp(-(dq/vs)^2)`); `None`:
+    /// no Stribeck effect.
+    pub stribeck_static: Option<f64>,
+    /// Stribeck velocity `vs`, rad/s.
+    pub stribeck_speed: f64,
+    /// Load-dependent gear friction: extra Coulomb friction `mu |tau|` per N m of
+    /// transmitted torque, dimensionless.
+    pub gear_friction: f64,
+}
+
+impl Unmodelled {
+    /// Iron loss (W) at link speed `dq` (rad/s).
+    #[inline]
+    pub fn iron_loss(&self, dq: f64) -> f64 {
+        self.iron_hysteresis * dq.abs() + self.iron_eddy * dq * dq
+    }
+
+    /// Friction-loss torque bound (N m) at speed `dq` (rad/s) with transmitted torque `tau`
+    /// (N m), for Coulomb friction `coulomb` (N m): Stribeck plus gear friction.
+    #[inline]
+    pub fn friction(&self, coulomb: f64, dq: f64, tau: f64) -> f64 {
+        let stribeck = match self.stribeck_static {
+            Some(fs) if self.stribeck_speed > 0.0 => {
+                (fs - coulomb) * (-(dq / self.stribeck_speed).powi(2)).exp()
+            }
+            _ => 0.0,
+        };
+        coulomb + stribeck + self.gear_friction * tau.abs()
+    }
+
+    /// Whether any effect is present.
+    pub fn any(&self) -> bool {
+        *self != Unmodelled::default()
+    }
 }
 
 impl JointDrive {
@@ -59,6 +112,7 @@ impl JointDrive {
             copper_loss: 0.0,
             standby_power: 0.0,
             friction,
+            unmodelled: Unmodelled::default(),
         }
     }
 }
@@ -92,6 +146,16 @@ struct JointEntry {
     coulomb: Option<f64>,
     #[serde(rename = "viscous_Nms_per_rad")]
     viscous: Option<f64>,
+    #[serde(rename = "iron_hysteresis_W_per_rad_s", default)]
+    iron_hysteresis: f64,
+    #[serde(rename = "iron_eddy_W_s2_per_rad2", default)]
+    iron_eddy: f64,
+    #[serde(rename = "stribeck_static_Nm")]
+    stribeck_static: Option<f64>,
+    #[serde(rename = "stribeck_speed_rad_s", default)]
+    stribeck_speed: f64,
+    #[serde(rename = "gear_friction_per_Nm", default)]
+    gear_friction: f64,
 }
 
 impl Drive {
@@ -179,6 +243,13 @@ impl Drive {
                         coulomb: e.coulomb.unwrap_or(joint.friction.coulomb),
                         viscous: e.viscous.unwrap_or(joint.friction.viscous),
                     },
+                    unmodelled: Unmodelled {
+                        iron_hysteresis: e.iron_hysteresis,
+                        iron_eddy: e.iron_eddy,
+                        stribeck_static: e.stribeck_static,
+                        stribeck_speed: e.stribeck_speed,
+                        gear_friction: e.gear_friction,
+                    },
                 };
                 check_joint(&drive).map_err(|m| err(format!("joint '{}': {m}", joint.name)))?;
                 Ok(drive)
@@ -230,6 +301,21 @@ impl Drive {
         }
     }
 
+    /// The same drives without their [`Unmodelled`] effects (the structure an identified
+    /// model has).
+    pub fn exact(&self) -> Drive {
+        Drive {
+            joints: self
+                .joints
+                .iter()
+                .map(|j| JointDrive {
+                    unmodelled: Unmodelled::default(),
+                    ..*j
+                })
+                .collect(),
+        }
+    }
+
     /// Drive data per joint, in robot joint order.
     pub fn joints(&self) -> &[JointDrive] {
         &self.joints
@@ -270,11 +356,32 @@ fn check_joint(d: &JointDrive) -> std::result::Result<(), String> {
         ("standby_W", d.standby_power),
         ("coulomb_Nm", d.friction.coulomb),
         ("viscous_Nms_per_rad", d.friction.viscous),
+        ("iron_hysteresis_W_per_rad_s", d.unmodelled.iron_hysteresis),
+        ("iron_eddy_W_s2_per_rad2", d.unmodelled.iron_eddy),
+        ("stribeck_speed_rad_s", d.unmodelled.stribeck_speed),
+        ("gear_friction_per_Nm", d.unmodelled.gear_friction),
     ];
     for (key, v) in non_negative {
         if !v.is_finite() || v < 0.0 {
             return Err(format!("{key} = {v} must be finite and >= 0"));
         }
+    }
+    if let Some(fs) = d.unmodelled.stribeck_static {
+        if !(fs.is_finite() && fs >= d.friction.coulomb) {
+            return Err(format!(
+                "stribeck_static_Nm = {fs} must be finite and >= coulomb_Nm = {}",
+                d.friction.coulomb
+            ));
+        }
+        if d.unmodelled.stribeck_speed <= 0.0 {
+            return Err("stribeck_static_Nm needs stribeck_speed_rad_s > 0".into());
+        }
+    }
+    if d.unmodelled.gear_friction >= 1.0 {
+        return Err(format!(
+            "gear_friction_per_Nm = {} must be < 1",
+            d.unmodelled.gear_friction
+        ));
     }
     if !(d.efficiency.is_finite() && d.efficiency > 0.0 && d.efficiency <= 1.0) {
         return Err(format!("efficiency = {} must be in (0, 1]", d.efficiency));

@@ -155,3 +155,101 @@ pub fn attach(robot: &Robot, payload: &Payload) -> Result<Robot> {
         .combined(&payload.in_last_link_frame(robot));
     robot.with_link_inertia(last, inertia)
 }
+
+/// A payload given on the command line or in a timeline: a built-in name
+/// ([`crate::model::builtin::PAYLOAD_NAMES`]) or a payload TOML file (relative paths from
+/// `dir`); several joined with `+` are combined (`tool+load_2kg`).
+pub fn resolve(spec: &str, dir: &Path) -> Result<Payload> {
+    let mut acc: Option<Payload> = None;
+    for part in spec.split('+').map(str::trim) {
+        if part.is_empty() {
+            return Err(Error::InvalidInput(format!(
+                "payload '{spec}': empty name between '+'"
+            )));
+        }
+        let one = if crate::model::builtin::PAYLOAD_NAMES.contains(&part) {
+            crate::model::builtin::payload(part)?
+        } else {
+            let path = dir.join(part);
+            if !path.is_file() {
+                return Err(Error::InvalidInput(format!(
+                    "payload '{part}' is neither a built-in name ({}) nor a file",
+                    crate::model::builtin::PAYLOAD_NAMES.join(", ")
+                )));
+            }
+            Payload::from_file(&path)?
+        };
+        acc = Some(match acc {
+            Some(a) => a.combined(&one),
+            None => one,
+        });
+    }
+    acc.ok_or_else(|| Error::InvalidInput("empty payload".into()))
+}
+
+/// One `[[event]]` of a payload timeline file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TimelineEntry {
+    t_s: f64,
+    payload: String,
+}
+
+/// The file as written.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TimelineFile {
+    event: Vec<TimelineEntry>,
+}
+
+/// Parse a payload timeline (TOML; `label` names the file in messages, `dir` resolves
+/// payload files):
+/// ```toml
+/// [[event]]
+/// t_s = 0.0
+/// payload = "tool"            # a built-in name, a payload file, or several joined by '+'
+/// [[event]]
+/// t_s = 3.2
+/// payload = "tool+load_2kg"
+/// [[event]]
+/// t_s = 7.5
+/// payload = "none"            # nothing on the flange from here on
+/// ```
+/// Times in s on the log's clock; each payload applies until the next event. Errors
+/// ([`Error::Toml`]): malformed TOML, unknown keys, non-finite or decreasing times, unknown
+/// payloads.
+pub fn timeline_from_toml_str(text: &str, label: &str, dir: &Path) -> Result<Vec<PayloadEvent>> {
+    let err = |message: String| Error::Toml {
+        file: label.to_string(),
+        message,
+    };
+    let file: TimelineFile =
+        toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+    let mut out: Vec<PayloadEvent> = Vec::with_capacity(file.event.len());
+    for (k, e) in file.event.iter().enumerate() {
+        if !e.t_s.is_finite() || out.last().is_some_and(|p| e.t_s < p.t_s) {
+            return Err(err(format!(
+                "event {}: t_s = {} must be finite and not before the previous event",
+                k + 1,
+                e.t_s
+            )));
+        }
+        let payload = if e.payload.trim() == "none" {
+            None
+        } else {
+            Some(resolve(&e.payload, dir).map_err(|x| err(format!("event {}: {x}", k + 1)))?)
+        };
+        out.push(PayloadEvent {
+            t_s: e.t_s,
+            payload,
+        });
+    }
+    Ok(out)
+}
+
+/// Read a payload timeline file (see [`timeline_from_toml_str`]).
+pub fn timeline_from_file(path: &Path) -> Result<Vec<PayloadEvent>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    timeline_from_toml_str(&text, &path.display().to_string(), dir)
+}

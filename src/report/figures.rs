@@ -158,14 +158,16 @@ fn step_trace(robot: &Robot, outcome: &Outcome) -> Result<Option<Figure>> {
     ) else {
         return Ok(None);
     };
-    let best = &outcome.estimators[outcome.best];
+    let name = outcome.model_name();
     let t = &ds.measured.t;
-    let predicted = best.model.power_with_payloads(robot, traj, &[], 1.0, t)?;
+    let predicted = outcome
+        .model
+        .power_with_payloads(robot, traj, &[], 1.0, t)?;
     let chart = power_chart(
         "Identification step 6: total motor power".into(),
         t,
         ("twin (logged)", &ds.measured.p_total),
-        (&best.method, &predicted),
+        (&name, &predicted),
     );
     Ok(Some(Figure {
         stem: "power_step6".into(),
@@ -186,11 +188,11 @@ fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Opti
         &outcome.sweep.datasets[k],
         &outcome.sweep.plans[k],
     );
-    let best = &outcome.estimators[outcome.best];
+    let name = outcome.model_name();
     let stride = (ds.truth.t.len() / 2000).max(1);
     let t: Vec<f64> = ds.truth.t.iter().step_by(stride).copied().collect();
     let simulated: Vec<f64> = ds.truth.p_total.iter().step_by(stride).copied().collect();
-    let predicted = best.model.power_with_payloads(
+    let predicted = outcome.model.power_with_payloads(
         robot,
         &plan.motion.trajectory,
         &plan.events,
@@ -204,7 +206,7 @@ fn sweep_trace(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Opti
         ),
         &t,
         ("twin", &simulated),
-        (&best.method, &predicted),
+        (&name, &predicted),
     );
     for v in &plan.via {
         chart = chart.with_annotation(Annotation::Point {

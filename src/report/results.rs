@@ -6,13 +6,15 @@
 use serde::Serialize;
 
 use crate::dataset::meta::Program;
+use crate::identification::fit::CvScore;
+use crate::validation::heldout::Heldout;
 use crate::validation::params::{Consistency, ParamRow};
 use crate::validation::payloads::CaseRow;
 use crate::validation::reproduce::{Outcome, StageTime};
 use crate::validation::sweep::{Cell, Optimum};
 
 /// Version of this schema; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// The whole file.
 #[derive(Debug, Clone, Serialize)]
@@ -23,12 +25,17 @@ pub struct Results {
     pub program: Program,
     /// How the twin and logger were set up.
     pub settings: Settings,
-    /// Table 3: one row per identification step.
+    /// The held-out benchmark of the identified model (motions, payloads and a seed no
+    /// identification saw): per motion under `motions`, summaries per prediction route.
+    pub heldout: Heldout,
+    /// The identified model used for the held-out benchmark, Table 4's known payloads and
+    /// the sweep.
+    pub model: ModelInfo,
+    /// Table 3: one row per identification step (in-sample: each step predicted on the data
+    /// it was fitted on).
     pub table3: Vec<Table3Row>,
-    /// Every estimator on the steps' data, with its Table 2.
+    /// Every estimator on the steps' data, with its Table 2 (in-sample energies).
     pub estimators: Vec<Estimator>,
-    /// Method name of the estimator used for Table 4's known payloads and the sweep.
-    pub best_estimator: String,
     /// Table 4: one row per tool/load case.
     pub table4: Vec<CaseRow>,
     /// Figure 14.
@@ -39,6 +46,29 @@ pub struct Results {
     pub total_wall_s: f64,
 }
 
+/// How the model used downstream was identified.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelInfo {
+    /// `cv:` and the estimator chosen by cross-validation.
+    pub name: String,
+    /// Cross-validation score of every candidate estimator.
+    pub cv: Vec<CvScore>,
+    /// Structure error of the chosen model (cross-validated), W.
+    #[serde(rename = "structure_sigma_W")]
+    pub structure_sigma_w: f64,
+    /// Condition number of each identification excitation's regressor.
+    pub excitation_conds: Vec<f64>,
+    /// Known load carried in each identification run, kg.
+    pub loads_kg: Vec<f64>,
+    /// RMS of the final fit's power residual, W.
+    #[serde(rename = "residual_rms_W")]
+    pub residual_rms_w: f64,
+    /// Base parameters whose relative standard deviation is below 1 %.
+    pub well_determined: usize,
+    /// Base parameters in all.
+    pub parameters: usize,
+}
+
 /// Twin and logger settings.
 #[derive(Debug, Clone, Serialize)]
 pub struct Settings {
@@ -46,6 +76,10 @@ pub struct Settings {
     pub robot: String,
     /// Motor model of the twin (`pmsm` or `efficiency`).
     pub motor_model: String,
+    /// Twin fidelity (`exact` or `realistic`).
+    pub truth: String,
+    /// Logged power signal (`total` or `bus`).
+    pub power_signal: String,
     /// Physics step, s.
     pub dt_s: f64,
     /// Rapier substeps per physics step.
@@ -148,7 +182,36 @@ impl Results {
                     table2: e.parameters.clone(),
                 })
                 .collect(),
-            best_estimator: outcome.estimators[outcome.best].method.clone(),
+            heldout: outcome.heldout.clone(),
+            model: ModelInfo {
+                name: outcome.model_name(),
+                cv: outcome.idset.selection.scores.clone(),
+                structure_sigma_w: outcome.model.structure_sigma,
+                excitation_conds: outcome.idset.conds.clone(),
+                loads_kg: outcome
+                    .idset
+                    .payloads
+                    .iter()
+                    .map(|e| {
+                        e.iter()
+                            .filter_map(|e| e.payload.as_ref())
+                            .map(|p| p.inertia.mass)
+                            .sum()
+                    })
+                    .collect(),
+                residual_rms_w: outcome.idset.selection.fit.estimate.residual_rms,
+                well_determined: outcome
+                    .idset
+                    .selection
+                    .fit
+                    .estimate
+                    .rel_std
+                    .iter()
+                    .take(outcome.model.theta.len())
+                    .filter(|r| **r < 0.01)
+                    .count(),
+                parameters: outcome.model.theta.len(),
+            },
             table4: outcome.cases.rows.clone(),
             sweep: SweepResults {
                 cells: outcome.sweep.cells.clone(),

@@ -28,6 +28,33 @@ use motor::MotorModel;
 use physics::{PhysicsSettings, RapierRobot};
 use record::Recording;
 
+/// How much of the real robot the twin simulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Fidelity {
+    /// The structure an identified model has: rigid bodies, Coulomb and viscous friction,
+    /// rotor inertia, and the motor model.
+    #[default]
+    Exact,
+    /// Also the drives' [`crate::model::drive::Unmodelled`] effects: Stribeck and
+    /// load-dependent gear friction in the physics, iron loss in the motors.
+    Realistic,
+}
+
+impl std::str::FromStr for Fidelity {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "exact" => Ok(Fidelity::Exact),
+            "realistic" => Ok(Fidelity::Realistic),
+            other => Err(Error::InvalidInput(format!(
+                "unknown twin fidelity '{other}' (expected exact or realistic)"
+            ))),
+        }
+    }
+}
+
 /// Settings of a twin run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -43,6 +70,9 @@ pub struct TwinConfig {
     pub nominal_error: f64,
     /// Seed of the nominal-model perturbation.
     pub nominal_seed: u64,
+    /// Which effects the twin simulates.
+    #[serde(default)]
+    pub fidelity: Fidelity,
 }
 
 impl Default for TwinConfig {
@@ -53,6 +83,7 @@ impl Default for TwinConfig {
             motor: MotorModel::Pmsm,
             nominal_error: 0.0,
             nominal_seed: 0,
+            fidelity: Fidelity::Exact,
         }
     }
 }
@@ -85,9 +116,17 @@ pub struct Twin<'a> {
 }
 
 impl<'a> Twin<'a> {
-    /// A twin of `robot` with true drive parameters `drive`.
+    /// A twin of `robot` with true drive parameters `drive`. Errors: invalid physics
+    /// settings, a nominal-model error that is not finite and in [0, 1), or drives of
+    /// another joint count.
     pub fn new(robot: &'a Robot, drive: &'a Drive, config: TwinConfig) -> Result<Self> {
         config.physics.validate()?;
+        if !(config.nominal_error.is_finite() && (0.0..1.0).contains(&config.nominal_error)) {
+            return Err(Error::InvalidInput(format!(
+                "nominal model error {} must be finite and in [0, 1)",
+                config.nominal_error
+            )));
+        }
         if drive.joints().len() != robot.dof() {
             return Err(Error::InvalidInput(format!(
                 "drive has {} joints, robot {}",
@@ -168,6 +207,8 @@ impl<'a> Twin<'a> {
         let mut payload_mass = 0.0;
         let mut hits: Vec<Option<TorqueLimitHit>> = vec![None; n];
         let mut max_err: f64 = 0.0;
+        let realistic = cfg.fidelity == Fidelity::Realistic;
+        let joints = self.drive.joints();
         sim.state(&mut q, &mut dq);
         for k in 0..steps {
             let t = k as f64 * dt;
@@ -189,6 +230,11 @@ impl<'a> Twin<'a> {
                     "the controller produced a non-finite torque at t = {t:.4} s"
                 )));
             }
+            if realistic {
+                for (i, d) in joints.iter().enumerate() {
+                    sim.set_coulomb(i, d.unmodelled.friction(d.friction.coulomb, dq[i], tau[i]));
+                }
+            }
             sim.step(&tau);
             sim.state(&mut q_next, &mut dq_next);
             if q_next.iter().chain(&dq_next).any(|v| !v.is_finite()) {
@@ -207,10 +253,12 @@ impl<'a> Twin<'a> {
                     });
                     h.steps += 1;
                 }
-                let p_mech = tau[i] * (q_next[i] - q[i]) / dt;
-                let p_elec = cfg
-                    .motor
-                    .electrical_power(&self.drive.joints()[i], tau[i], p_mech);
+                let speed = (q_next[i] - q[i]) / dt;
+                let p_mech = tau[i] * speed;
+                let mut p_elec = cfg.motor.electrical_power(&joints[i], tau[i], p_mech);
+                if realistic {
+                    p_elec += joints[i].unmodelled.iron_loss(speed);
+                }
                 p_total += p_elec;
                 rec.q[i].push(q[i]);
                 rec.dq[i].push(dq[i]);

@@ -248,6 +248,20 @@ impl RapierRobot {
         }
     }
 
+    /// Set the Coulomb friction-loss bound of joint `i` (N m, >= 0) for the next steps: how a
+    /// realistic twin makes friction depend on speed (Stribeck) and load (gear friction),
+    /// still dissipated by the physics.
+    pub fn set_coulomb(&mut self, i: usize, coulomb: f64) {
+        let d = self.dofs[i];
+        if let Some(mb) = self
+            .world
+            .multibody_joints
+            .get_multibody_mut(self.multibody)
+        {
+            mb.frictions_mut()[d] = coulomb.max(0.0);
+        }
+    }
+
     /// Advance one step `dt` holding the joint torques `tau` (N m).
     pub fn step(&mut self, tau: &[f64]) {
         let bodies = &mut self.world.bodies;

@@ -3,11 +3,12 @@
 //! * `paper-steps`: the paper's step-by-step method ([`super::steps`]).
 //! * `total`: every base parameter at once from the pooled total power (linear model), without
 //!   the samples near a velocity reversal ([`MIN_SPEED`]).
-//! * `pmsm`: the same pooled samples with copper-loss terms, by Levenberg–Marquardt (only when
-//!   the twin's motors follow the PMSM model; the linear model is the right one otherwise).
+//! * `pmsm`: the same pooled samples with copper-loss terms, by Levenberg–Marquardt.
 //!
-//! Each model predicts the energy of every step's trajectory; the best is the one with the
-//! smallest worst-case error.
+//! Each model predicts the energy of every step's trajectory it was fitted on: an in-sample
+//! comparison (a fit with a constant-power column predicts its own data's energy almost
+//! whatever its parameters are). Which model to use is decided elsewhere, by
+//! cross-validation ([`crate::identification::fit::select`]), never by these errors.
 
 use serde::Serialize;
 
@@ -15,10 +16,9 @@ use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
 use crate::identification::linear::{self, Observation};
 use crate::identification::lsq::Estimate;
-use crate::identification::model::PowerModel;
+use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use crate::identification::pmsm;
 use crate::identification::states::States;
-use crate::twin::motor::MotorModel;
 use crate::validation::params::{Consistency, ParamRow, consistency, table};
 use crate::validation::rig::Rig;
 use crate::validation::steps::Steps;
@@ -54,8 +54,9 @@ pub struct EstimatorResult {
     pub consistency: Consistency,
 }
 
-/// Identify with every estimator that applies to `rig`'s motor model and evaluate each.
-/// The paper-steps model is taken from `steps`.
+/// Identify with every estimator and evaluate each on the steps' trajectories (in-sample).
+/// The paper-steps model is taken from `steps`; the linear all-at-once model is the
+/// paper's (scaled by 1/eta), the PMSM model is in SI units.
 pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
     let robot = rig.robot;
     let mut pooled: Option<States> = None;
@@ -71,22 +72,19 @@ pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
     }
     let pooled =
         pooled.ok_or_else(|| Error::InvalidInput("no step data to identify from".into()))?;
-    let scaled = rig.twin.motor == MotorModel::Efficiency;
     let layout = ParamLayout::new(robot, true, true);
     let mut fits = vec![(
         "paper-steps",
         steps.model.clone(),
         steps.rows.iter().map(|r| r.estimate.clone()).collect(),
     )];
-    let mut total = PowerModel::new(robot, layout, scaled)?;
+    let mut total = PowerModel::new(robot, layout, true)?;
     let est = linear::identify(robot, &mut total, &pooled, Observation::TotalPower, &power)?;
     fits.push(("total", total, vec![est]));
-    if rig.twin.motor == MotorModel::Pmsm {
-        let mut model = PowerModel::new(robot, layout, false)?;
-        let est = pmsm::identify(robot, &mut model, &pooled, &power)?;
-        fits.push(("pmsm", model, vec![est]));
-    }
-    let efficiency = rig.drive.nominal_efficiency();
+    let mut model = PowerModel::new(robot, layout, false)?;
+    let est = pmsm::identify(robot, &mut model, &pooled, &power)?;
+    fits.push(("pmsm", model, vec![est]));
+    let efficiency = DATASHEET_EFFICIENCY;
     fits.into_iter()
         .map(|(method, model, estimates)| {
             let mut predicted_j = Vec::with_capacity(steps.rows.len());
@@ -111,11 +109,4 @@ pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
             })
         })
         .collect()
-}
-
-/// The result with the smallest worst-case energy error.
-pub fn best(results: &[EstimatorResult]) -> Option<&EstimatorResult> {
-    results
-        .iter()
-        .min_by(|a, b| a.max_abs_error_pct.total_cmp(&b.max_abs_error_pct))
 }

@@ -13,6 +13,8 @@
 //! [`rig::Progress`].
 
 pub mod estimators;
+pub mod heldout;
+pub mod idset;
 pub mod params;
 pub mod payloads;
 pub mod reproduce;

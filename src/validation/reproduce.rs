@@ -1,18 +1,25 @@
 //! `powertwin reproduce`: the paper's experiments end to end on one rig: the six steps
-//! (Table 3), the estimators compared on their data (Table 2), the tool and load cases
-//! (Table 4) and the pick-and-place sweep (Figure 14).
+//! (Table 3), the estimators compared on their data (Table 2, in-sample), then the
+//! identification a user would run (an identification set over the workspace and payload
+//! range, the estimator chosen by cross-validation) and its model judged on held-out motions
+//! (the benchmark that leads the report), the tool and load cases (Table 4) and the
+//! pick-and-place sweep (Figure 14) predicted with that model.
 
 use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
+use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use crate::model::builtin;
 use crate::model::payload::Payload;
 use crate::trajectory::limits::IRB1200_ACCEL_LIMITS;
 use crate::trajectory::task::Scenario;
-use crate::validation::estimators::{EstimatorResult, best, compare};
+use crate::validation::estimators::{EstimatorResult, compare};
+use crate::validation::heldout::{self, Heldout, HeldoutOptions};
+use crate::validation::idset::{self, IdSet, IdSetOptions};
 use crate::validation::payloads::{self, Cases};
 use crate::validation::rig::{Progress, Rig};
 use crate::validation::steps::{self, Steps, StepsOptions};
@@ -27,6 +34,10 @@ pub struct Plan {
     pub cases: Vec<(String, Option<Payload>)>,
     /// The task and its sweep grid.
     pub scenario: Scenario,
+    /// The identification set.
+    pub idset: IdSetOptions,
+    /// The held-out benchmark.
+    pub heldout: HeldoutOptions,
 }
 
 impl Plan {
@@ -64,6 +75,8 @@ impl Plan {
             },
             cases,
             scenario,
+            idset: IdSetOptions::irb1200(quick),
+            heldout: HeldoutOptions::irb1200(if quick { 12 } else { 30 }),
         })
     }
 }
@@ -81,17 +94,30 @@ pub struct StageTime {
 pub struct Outcome {
     /// Table 3.
     pub steps: Steps,
-    /// The estimators on the steps' data (Table 2 per estimator).
+    /// The estimators on the steps' data (Table 2 per estimator; in-sample).
     pub estimators: Vec<EstimatorResult>,
-    /// Index into `estimators` of the best one (used for Table 4's known payloads and the
-    /// sweep).
-    pub best: usize,
+    /// The identification set and its cross-validated fit.
+    pub idset: IdSet,
+    /// The model identified from the identification set (used for the held-out benchmark,
+    /// Table 4's known payloads and the sweep).
+    pub model: PowerModel,
+    /// The held-out benchmark of `model`.
+    pub heldout: Heldout,
+    /// The twin's dataset of each held-out motion.
+    pub heldout_datasets: Vec<Dataset>,
     /// Table 4.
     pub cases: Cases,
     /// Figure 14.
     pub sweep: Sweep,
     /// Wall time per stage.
     pub timings: Vec<StageTime>,
+}
+
+impl Outcome {
+    /// Name of the model used downstream: `cv:` and the estimator cross-validation chose.
+    pub fn model_name(&self) -> String {
+        format!("cv:{}", self.idset.selection.chosen.name())
+    }
 }
 
 /// Run `plan` on `rig`.
@@ -109,17 +135,16 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     lap("task planned for every sweep cell");
     let steps = steps::run(rig, &plan.steps, progress)?;
     lap("excitation, twin runs and six-step identification (Table 3)");
-    progress.stage("Table 2: estimators", 1);
+    progress.stage("Table 2: estimators (in-sample)", 1);
     let estimators = compare(rig, &steps)?;
-    let chosen =
-        best(&estimators).ok_or_else(|| Error::InvalidInput("no estimator applies".into()))?;
-    let best = estimators
-        .iter()
-        .position(|e| e.method == chosen.method)
-        .unwrap_or(0);
     progress.advance();
-    lap("estimators compared (Table 2)");
-    let efficiency = rig.drive.nominal_efficiency();
+    lap("estimators compared on the steps' data (Table 2, in-sample)");
+    let idset = idset::run(rig, &plan.idset, progress)?;
+    let model = idset.selection.fit.model.clone();
+    lap("identification set: excitations, twin runs, cross-validated fit");
+    let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, progress)?;
+    lap("held-out benchmark");
+    let efficiency = DATASHEET_EFFICIENCY;
     let last = steps
         .trajectories
         .last()
@@ -127,7 +152,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     let cases = payloads::run(
         rig,
         &steps.model,
-        &estimators[best].model,
+        &model,
         last,
         Route::Fourier {
             base_freq_hz: 0.1,
@@ -142,14 +167,17 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         rig,
         &plan.scenario,
         planned,
-        Some((&estimators[best].model, efficiency)),
+        Some((&model, efficiency)),
         progress,
     )?;
     lap("pick-and-place sweep (Figure 14)");
     Ok(Outcome {
         steps,
         estimators,
-        best,
+        idset,
+        model,
+        heldout,
+        heldout_datasets,
         cases,
         sweep,
         timings,

@@ -10,9 +10,9 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
+use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
-use crate::model::payload::PayloadEvent;
 use crate::validation::reproduce::{Outcome, Plan};
 use crate::validation::sweep::{Cell, Predictor, Sweep};
 
@@ -98,7 +98,7 @@ impl Viz {
 
     /// Log what `powertwin reproduce` found by running `plan`: each identification step's run under
     /// `table3/step{k}`, each tool and load case under `table4/{case}` and each sweep cell under
-    /// `sweep/{v}mps_{L}kg` (e.g. `sweep/0p5mps_4kg`), all with the power of the best estimator's
+    /// `sweep/{v}mps_{L}kg` (e.g. `sweep/0p5mps_4kg`), all with the power of the cross-validated
     /// model (known payloads added with the drives' nominal `efficiency`); every estimator's
     /// parameter errors under `identification/{method}` (Table 2); and the sweep's energies under
     /// `sweep` (Figure 14). First sends a layout with tabs for the representative sweep cell, the
@@ -116,10 +116,6 @@ impl Viz {
     ) -> Result<()> {
         let mismatch =
             |what: &str| Error::InvalidInput(format!("the outcome's {what} do not match"));
-        let best = outcome
-            .estimators
-            .get(outcome.best)
-            .ok_or_else(|| mismatch("estimators"))?;
         let steps = &outcome.steps;
         if steps.datasets.len() != steps.trajectories.len() {
             return Err(mismatch("step datasets and trajectories"));
@@ -174,7 +170,7 @@ impl Viz {
                 prefix: format!("table3/step{}", k + 1),
                 dataset,
                 prediction: Some(Prediction {
-                    model: &best.model,
+                    model: &outcome.model,
                     efficiency,
                     trajectory: traj,
                     events: &[],
@@ -192,7 +188,7 @@ impl Viz {
                 prefix: format!("table4/{}", path_part(name)),
                 dataset,
                 prediction: Some(Prediction {
-                    model: &best.model,
+                    model: &outcome.model,
                     efficiency,
                     trajectory: last,
                     events,
@@ -208,7 +204,7 @@ impl Viz {
             robot,
             &outcome.sweep,
             &plan.scenario.tcp(),
-            Some((&best.model, efficiency)),
+            Some((&outcome.model, efficiency)),
             "sweep",
             display_hz,
         )

@@ -1,0 +1,504 @@
+//! The held-out benchmark: motions no identification saw, drawn from their own seed (random
+//! Fourier motions about random centres, random point-to-point moves, linear TCP moves at
+//! 0.05–1 m/s), each with a known payload from none to the rated payload, run on the twin and
+//! predicted by an identified model from the logged stream (states smoothed from the 10 Hz
+//! positions) and from the commanded trajectory. The twin's truth only scores.
+//!
+//! Per motion: the error of the predicted energy (of the measured signal) and of the energy
+//! above standby, the mean-power error, the power RMSE at the logged samples, whether the
+//! 95 % interval covers the truth, and the same for a baseline a user has without
+//! identification: the URDF's rigid bodies and friction with the data-sheet efficiency.
+
+use rand::{Rng, RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::dataset::Dataset;
+use crate::dynamics::ParamLayout;
+use crate::error::{Error, Result};
+use crate::identification::data::{Route, prepare};
+use crate::identification::model::PowerModel;
+use crate::kinematics::fk::flange_pose;
+use crate::model::Robot;
+use crate::model::drive::Drive;
+use crate::model::payload::{Payload, PayloadEvent};
+use crate::trajectory::Trajectory;
+use crate::trajectory::linear_move::{LinearMoveOptions, MotionLimits, ViaPose, plan};
+use crate::trajectory::random::{
+    RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
+};
+use crate::validation::rig::{Progress, Rig};
+
+/// Route from a logged stream to states for prediction: a local quartic through 5 samples
+/// (an interpolating fit: encoder noise is far below what a 10 Hz differentiation amplifies).
+pub const LOG_ROUTE: Route = Route::Smoothing {
+    window: 5,
+    degree: 4,
+};
+
+/// Settings of the benchmark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldoutOptions {
+    /// Motions (a third of each kind, in turn).
+    pub count: usize,
+    /// Seed of the motions (keep it apart from every identification seed).
+    pub seed: u64,
+    /// Largest payload, kg (the rated payload).
+    pub max_payload_kg: f64,
+    /// Efficiency of the baseline (data sheet).
+    pub baseline_efficiency: f64,
+    /// Route from a logged stream to states for the predictions from logs.
+    pub route: Route,
+}
+
+impl HeldoutOptions {
+    /// 30 motions from seed 90 210, payloads up to the IRB 1200's rated 7 kg, baseline
+    /// efficiency 0.87 (the middle of the paper's 83–92 %).
+    pub fn irb1200(count: usize) -> HeldoutOptions {
+        HeldoutOptions {
+            count,
+            seed: 90_210,
+            max_payload_kg: 7.0,
+            baseline_efficiency: 0.87,
+            route: LOG_ROUTE,
+        }
+    }
+}
+
+/// One held-out motion.
+pub struct Motion {
+    /// `fourier`, `point-to-point` or `linear`.
+    pub kind: &'static str,
+    /// The commanded trajectory.
+    pub trajectory: Box<dyn Trajectory + Send + Sync>,
+    /// Known payload timeline.
+    pub events: Vec<PayloadEvent>,
+    /// Payload mass, kg.
+    pub payload_kg: f64,
+    /// TCP speed of a linear motion, m/s.
+    pub tcp_speed_m_s: Option<f64>,
+}
+
+/// Draw the motions of `opts` for `robot`.
+pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    (0..opts.count)
+        .map(|k| {
+            let payload_kg = if k % 4 == 0 {
+                0.0
+            } else {
+                rng.random_range(0.5..=opts.max_payload_kg)
+            };
+            let events = if payload_kg > 0.0 {
+                vec![PayloadEvent {
+                    t_s: 0.0,
+                    payload: Some(Payload::cube(
+                        &format!("load {payload_kg:.2} kg"),
+                        payload_kg,
+                        [0.0, 0.0, 0.06].into(),
+                    )?),
+                }]
+            } else {
+                Vec::new()
+            };
+            let (kind, trajectory, speed): (_, Box<dyn Trajectory + Send + Sync>, _) = match k % 3 {
+                0 => {
+                    let o = RandomFourierOptions {
+                        base_freq_hz: rng.random_range(0.1..=0.25),
+                        min_amplitude: 0.3,
+                        ..RandomFourierOptions::default()
+                    };
+                    (
+                        "fourier",
+                        Box::new(random_fourier(robot, &mut rng, &o)?),
+                        None,
+                    )
+                }
+                1 => {
+                    let o = RandomPointToPointOptions {
+                        points: 4,
+                        max_slowdown: 3.0,
+                        dwell_s: 0.3,
+                        ..RandomPointToPointOptions::default()
+                    };
+                    (
+                        "point-to-point",
+                        Box::new(random_point_to_point(robot, &mut rng, &o)?),
+                        None,
+                    )
+                }
+                _ => {
+                    let (m, v) = linear(robot, &mut rng)?;
+                    ("linear", Box::new(m), Some(v))
+                }
+            };
+            Ok(Motion {
+                kind,
+                trajectory,
+                events,
+                payload_kg,
+                tcp_speed_m_s: speed,
+            })
+        })
+        .collect()
+}
+
+/// Random linear TCP moves: from a random working pose (tool orientation kept) through
+/// three points 0.1–0.3 m apart, at a log-uniform TCP speed in 0.05–1 m/s. Draws again
+/// (up to 50 times) when a plan is unreachable or breaks a joint limit.
+fn linear<R: Rng + ?Sized>(
+    robot: &Robot,
+    rng: &mut R,
+) -> Result<(crate::trajectory::linear_move::LinearMotion, f64)> {
+    let mut last = None;
+    for _ in 0..50 {
+        let q0: Vec<f64> = [
+            rng.random_range(-1.5..=1.5),
+            rng.random_range(-0.2..=0.7),
+            rng.random_range(-0.3..=0.5),
+            rng.random_range(-1.0..=1.0),
+            rng.random_range(0.4..=1.4),
+            rng.random_range(-1.0..=1.0),
+        ]
+        .into_iter()
+        .take(robot.dof())
+        .collect();
+        if q0.len() != robot.dof() {
+            return Err(Error::InvalidInput(
+                "linear held-out moves are drawn for 6-joint arms".into(),
+            ));
+        }
+        let start = flange_pose(robot, &q0);
+        let mut via = vec![ViaPose {
+            name: "start".into(),
+            tcp: start,
+        }];
+        let mut p = start;
+        for k in 0..3 {
+            let dir = nalgebra::Vector3::new(
+                rng.random_range(-1.0..=1.0),
+                rng.random_range(-1.0..=1.0),
+                rng.random_range(-0.6..=0.6),
+            )
+            .normalize();
+            let len: f64 = rng.random_range(0.1..=0.3);
+            p.translation.vector += dir * len;
+            via.push(ViaPose {
+                name: format!("P{}", k + 1),
+                tcp: p,
+            });
+        }
+        let speed = (rng.random_range(0.05f64.ln()..=0.0)).exp();
+        let options = LinearMoveOptions {
+            dwell_s: 0.2,
+            limits: MotionLimits {
+                accel_m_s2: 4.0,
+                ..MotionLimits::default()
+            },
+            ..LinearMoveOptions::default()
+        };
+        match plan(
+            robot,
+            &nalgebra::Isometry3::identity(),
+            &q0,
+            &via,
+            speed,
+            &options,
+        ) {
+            Ok(m) => return Ok((m, speed)),
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| Error::InvalidInput("no linear move found".into())))
+}
+
+/// Scores of one prediction.
+#[derive(Debug, Clone, Serialize)]
+pub struct Scores {
+    /// Predicted energy of the measured signal, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Half-width of its 95 % interval, J.
+    #[serde(rename = "interval_95_J")]
+    pub interval_j: f64,
+    /// `100 (predicted - true) / true`, %.
+    pub energy_error_pct: f64,
+    /// Error relative to the true energy above standby, %.
+    pub above_standby_error_pct: f64,
+    /// `(predicted - true) / duration`, W.
+    #[serde(rename = "mean_power_error_W")]
+    pub mean_power_error_w: f64,
+    /// Whether the 95 % interval holds the true energy.
+    pub covered: bool,
+}
+
+/// One motion's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionResult {
+    /// 1-based index.
+    pub index: usize,
+    /// Kind of motion.
+    pub kind: String,
+    /// Payload mass, kg.
+    pub payload_kg: f64,
+    /// TCP speed of a linear motion, m/s.
+    pub tcp_speed_m_s: Option<f64>,
+    /// Duration of the logged span, s.
+    pub duration_s: f64,
+    /// True energy of the measured signal over the logged span, J (twin truth).
+    #[serde(rename = "true_J")]
+    pub true_j: f64,
+    /// True standby energy over the span, J (twin truth).
+    #[serde(rename = "true_standby_J")]
+    pub standby_j: f64,
+    /// Prediction from the logged positions.
+    pub from_log: Scores,
+    /// Prediction from the commanded trajectory (true energy over the whole run).
+    pub from_plan: Scores,
+    /// The baseline (URDF + data-sheet efficiency) from the logged positions.
+    pub baseline: Scores,
+    /// RMS of predicted minus measured power at the logged samples, W.
+    #[serde(rename = "power_rmse_W")]
+    pub power_rmse_w: f64,
+    /// The same for the baseline, W.
+    #[serde(rename = "baseline_power_rmse_W")]
+    pub baseline_power_rmse_w: f64,
+    /// Largest tracking error of the twin run, rad.
+    pub max_tracking_error_rad: f64,
+}
+
+/// Median, 95th percentile and worst of a metric's absolute values.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Spread {
+    /// Median.
+    pub median: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// Largest.
+    pub worst: f64,
+}
+
+impl Spread {
+    /// Of the absolute values of `v` (zeros when empty).
+    pub fn of(v: impl IntoIterator<Item = f64>) -> Spread {
+        let mut a: Vec<f64> = v.into_iter().map(f64::abs).collect();
+        if a.is_empty() {
+            return Spread {
+                median: 0.0,
+                p95: 0.0,
+                worst: 0.0,
+            };
+        }
+        a.sort_by(f64::total_cmp);
+        let rank = |p: f64| a[((p * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1];
+        Spread {
+            median: if a.len() % 2 == 1 {
+                a[a.len() / 2]
+            } else {
+                0.5 * (a[a.len() / 2 - 1] + a[a.len() / 2])
+            },
+            p95: rank(0.95),
+            worst: a[a.len() - 1],
+        }
+    }
+}
+
+/// Summary of one prediction route over all motions.
+#[derive(Debug, Clone, Serialize)]
+pub struct RouteSummary {
+    /// Energy error, %.
+    pub energy_error_pct: Spread,
+    /// Error of the energy above standby, %.
+    pub above_standby_error_pct: Spread,
+    /// Mean-power error, W.
+    #[serde(rename = "mean_power_error_W")]
+    pub mean_power_error_w: Spread,
+    /// Share of motions whose 95 % interval holds the truth, %.
+    pub coverage_pct: f64,
+}
+
+impl RouteSummary {
+    fn of<'a>(scores: impl Iterator<Item = &'a Scores> + Clone) -> RouteSummary {
+        let count = scores.clone().count().max(1) as f64;
+        RouteSummary {
+            energy_error_pct: Spread::of(scores.clone().map(|s| s.energy_error_pct)),
+            above_standby_error_pct: Spread::of(scores.clone().map(|s| s.above_standby_error_pct)),
+            mean_power_error_w: Spread::of(scores.clone().map(|s| s.mean_power_error_w)),
+            coverage_pct: 100.0 * scores.filter(|s| s.covered).count() as f64 / count,
+        }
+    }
+}
+
+/// The benchmark's outcome.
+#[derive(Debug, Clone, Serialize)]
+pub struct Heldout {
+    /// Seed of the motions.
+    pub seed: u64,
+    /// Per motion.
+    pub motions: Vec<MotionResult>,
+    /// The identified model, from the logs.
+    pub from_log: RouteSummary,
+    /// The identified model, from the commanded trajectories.
+    pub from_plan: RouteSummary,
+    /// The baseline, from the logs.
+    pub baseline: RouteSummary,
+    /// Power RMSE at the logged samples, W.
+    #[serde(rename = "power_rmse_W")]
+    pub power_rmse_w: Spread,
+    /// The same for the baseline, W.
+    #[serde(rename = "baseline_power_rmse_W")]
+    pub baseline_power_rmse_w: Spread,
+}
+
+/// The model a user has without identification: the URDF's rigid bodies and friction
+/// (no rotor inertia, no standby or copper loss), with every power divided by the
+/// data-sheet `efficiency`, of the same power signal as `like`.
+pub fn baseline(robot: &Robot, like: &PowerModel, efficiency: f64) -> Result<PowerModel> {
+    let layout = ParamLayout::new(robot, true, true);
+    let mut m = PowerModel::new(robot, layout, true)?;
+    let base = m.base_params(robot)?;
+    let theta = layout.theta(
+        robot,
+        &crate::dynamics::DriveTerms::from(&Drive::from_urdf(robot)),
+    );
+    for (t, v) in m.theta.iter_mut().zip(base.base_values(&theta)?) {
+        *t = v / efficiency;
+    }
+    m.signal = like.signal;
+    Ok(m)
+}
+
+/// Run every motion on `rig` and score `model` (and the baseline) against the truth.
+pub fn run(
+    rig: &Rig,
+    model: &PowerModel,
+    opts: &HeldoutOptions,
+    progress: &dyn Progress,
+) -> Result<(Heldout, Vec<Dataset>)> {
+    let robot = rig.robot;
+    let list = motions(robot, opts)?;
+    let base_model = baseline(robot, model, opts.baseline_efficiency)?;
+    let standby_w: f64 = rig.drive.joints().iter().map(|j| j.standby_power).sum();
+    progress.stage("held-out motions: twin runs and predictions", list.len());
+    let out: Vec<(MotionResult, Dataset)> = list
+        .par_iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let description = serde_json::json!({
+                "kind": m.kind,
+                "experiment": "held-out benchmark",
+                "index": k + 1,
+                "payload_kg": m.payload_kg,
+                "tcp_speed_m_s": m.tcp_speed_m_s,
+            });
+            let ds = rig
+                .run(
+                    m.trajectory.as_ref(),
+                    &m.events,
+                    10_000 + k as u64,
+                    description,
+                )
+                .map_err(|e| e.context(&format!("held-out motion {}", k + 1)))?;
+            let r = score(rig, model, &base_model, standby_w, k, m, &ds, opts)?;
+            progress.advance();
+            Ok((r, ds))
+        })
+        .collect::<Result<_>>()?;
+    let (motions, datasets): (Vec<_>, Vec<_>) = out.into_iter().unzip();
+    let h = Heldout {
+        seed: opts.seed,
+        from_log: RouteSummary::of(motions.iter().map(|m| &m.from_log)),
+        from_plan: RouteSummary::of(motions.iter().map(|m| &m.from_plan)),
+        baseline: RouteSummary::of(motions.iter().map(|m| &m.baseline)),
+        power_rmse_w: Spread::of(motions.iter().map(|m| m.power_rmse_w)),
+        baseline_power_rmse_w: Spread::of(motions.iter().map(|m| m.baseline_power_rmse_w)),
+        motions,
+    };
+    Ok((h, datasets))
+}
+
+/// Score one motion's run.
+#[allow(clippy::too_many_arguments)]
+fn score(
+    rig: &Rig,
+    model: &PowerModel,
+    base_model: &PowerModel,
+    standby_w: f64,
+    k: usize,
+    m: &Motion,
+    ds: &Dataset,
+    opts: &HeldoutOptions,
+) -> Result<MotionResult> {
+    let robot = rig.robot;
+    let dt = rig.twin.physics.dt;
+    let clipped = model.signal.clipped();
+    let truth = &ds.truth;
+    let signal = if clipped {
+        &truth.p_grid
+    } else {
+        &truth.p_total
+    };
+    // Truth over the logged span [t_0, t_last) and over the whole run.
+    let log = ds.log(&format!("held-out motion {}", k + 1))?;
+    let (t0, t1) = (log.t_s[0], log.t_s[log.len() - 1]);
+    let span: f64 = truth
+        .t
+        .iter()
+        .zip(signal)
+        .filter(|(t, _)| **t >= t0 - 1e-9 && **t < t1 - 1e-9)
+        .map(|(_, p)| p * dt)
+        .sum();
+    let whole: f64 = signal.iter().sum::<f64>() * dt;
+    let prepared = prepare(&log, opts.route)?;
+    let scores = |pred: crate::identification::model::Prediction, truth_j: f64, dur: f64| {
+        let err = pred.energy_j - truth_j;
+        Scores {
+            predicted_j: pred.energy_j,
+            interval_j: pred.interval_j,
+            energy_error_pct: 100.0 * err / truth_j,
+            above_standby_error_pct: 100.0 * err / (truth_j - standby_w * dur),
+            mean_power_error_w: err / dur,
+            covered: err.abs() <= pred.interval_j,
+        }
+    };
+    let eff = opts.baseline_efficiency;
+    let span_s = t1 - t0;
+    let events = prepared.motion_events();
+    let from_log = model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
+    let from_plan = model.predict(robot, m.trajectory.as_ref(), &m.events, eff, dt)?;
+    let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
+    let rmse = |mm: &PowerModel| -> Result<f64> {
+        let t: Vec<f64> = log.t_s.iter().map(|t| t - prepared.motion_t0_s).collect();
+        let p = mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &t)?;
+        let se: f64 = p
+            .iter()
+            .zip(&log.power_w)
+            .map(|(p, y)| {
+                let p = if clipped { p.max(0.0) } else { *p };
+                (p - y).powi(2)
+            })
+            .sum();
+        Ok((se / log.len() as f64).sqrt())
+    };
+    Ok(MotionResult {
+        index: k + 1,
+        kind: m.kind.to_string(),
+        payload_kg: m.payload_kg,
+        tcp_speed_m_s: m.tcp_speed_m_s,
+        duration_s: span_s,
+        true_j: span,
+        standby_j: standby_w * span_s,
+        from_log: scores(from_log, span, span_s),
+        from_plan: scores(from_plan, whole, ds.meta.summary.duration_s),
+        baseline: scores(base, span, span_s),
+        power_rmse_w: rmse(model)?,
+        baseline_power_rmse_w: rmse(base_model)?,
+        max_tracking_error_rad: truth
+            .q
+            .iter()
+            .zip(&truth.q_ref)
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+            .fold(0.0, f64::max),
+    })
+}
