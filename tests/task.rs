@@ -62,7 +62,7 @@ fn builtin_scenario_has_the_papers_path_points_and_sweep() {
     assert_eq!(sc.point("C"), Some(Vector3::new(0.30, 0.30, 0.15)));
     assert_eq!(sc.sweep.speeds_m_s, [0.05, 0.1, 0.3, 0.5, 0.8, 1.0]);
     assert_eq!(sc.sweep.loads_kg, [0.0, 2.0, 4.0]);
-    assert_eq!(sc.tool.inertia.mass, TOOL_KG);
+    assert_eq!(sc.tool.as_ref().map(|t| t.inertia.mass), Some(TOOL_KG));
     assert_eq!(sc.tcp().translation.vector, Vector3::new(0.0, 0.0, 0.120));
     // Tool pointing down: tool z = -z_base, tool x = -x_base.
     let r = sc.orientation();
