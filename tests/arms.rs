@@ -9,7 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::{run as powertwin, tmp};
-use powertwin::Robot;
+use nalgebra::{Isometry3, Translation3, Vector3};
 use powertwin::dataset::Dataset;
 use powertwin::dataset::generate::{RunSpec, simulate};
 use powertwin::dataset::meta::Urdf;
@@ -18,17 +18,23 @@ use powertwin::identification::data::{Route, prepare};
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::pmsm;
 use powertwin::identification::states::States;
+use powertwin::kinematics::dls::{self, DlsOptions};
+use powertwin::kinematics::fk::tcp_pose;
 use powertwin::model::drive::Drive;
 use powertwin::model::urdf::{LoadOptions, load_file};
 use powertwin::trajectory::Trajectory;
 use powertwin::trajectory::excitation::{ExcitationOptions, design, rest_pose};
+use powertwin::trajectory::limits::check_limits;
+use powertwin::trajectory::linear_move::{LinearMoveOptions, ViaPose, plan};
 use powertwin::trajectory::random::{RandomFourierOptions, random_fourier};
+use powertwin::trajectory::s_curve::SCurve;
 use powertwin::trajectory::task::Scenario;
 use powertwin::twin::TwinConfig;
 use powertwin::twin::sensor::SensorSettings;
 use powertwin::validation::params::consistency;
 use powertwin::validation::rig::{Rig, Silent};
 use powertwin::validation::sweep;
+use powertwin::{Error, Robot};
 
 /// Panda finger joints, locked (closed) for every command.
 const PANDA_LOCK: [&str; 2] = ["panda_finger_joint1", "panda_finger_joint2"];
@@ -441,4 +447,148 @@ fn ur5_cli_commands_take_robot_and_drive() {
 #[test]
 fn panda_cli_commands_take_robot_drive_and_lock() {
     cli(&PANDA, "panda");
+}
+
+/// The planned motion at `t`.
+fn at(traj: &dyn Trajectory, t: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = traj.dof();
+    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    traj.sample(t, &mut q, &mut dq, &mut ddq);
+    (q, dq, ddq)
+}
+
+#[test]
+fn numerical_linear_moves_stay_on_the_lines_with_exact_derivatives() {
+    // An independent reconstruction of q(t) for each leg: the S-curve, the point on the line,
+    // damped least squares to 1e-13 from the planned q with the same joints held. Its central
+    // differences must match the planned dq and ddq; the TCP must stop on the via points.
+    let tight = DlsOptions {
+        position_tolerance: 1e-13,
+        orientation_tolerance: 1e-13,
+        ..DlsOptions::default()
+    };
+    for (arm, held) in [(&UR5, vec![]), (&PANDA, vec![2])] {
+        let (robot, _, _) = load(arm);
+        let sc = Scenario::from_file(&repo(arm.scenario)).unwrap();
+        // Slow enough that no leg is slowed for the joint limits (the Panda's are low).
+        let speed = 0.1;
+        let run = sc.plan(&robot, speed, 0.0).unwrap();
+        assert!(run.motion.slowed.is_empty(), "{:?}", run.motion.slowed);
+        let (lim, tcp) = (sc.motion.limits.clone(), sc.tcp());
+        check_limits(&robot, &run.motion, 1e-3, Some(&lim.joint_accel_rad_s2)).unwrap();
+        for v in &run.via {
+            let (q, dq, _) = at(&run.motion, v.arrival_s);
+            let p = tcp_pose(&robot, &q, &tcp);
+            assert!((p.translation.vector - v.tcp_m).norm() < 1e-9, "{}", v.name);
+            assert!(p.rotation.angle_to(&sc.orientation()) < 1e-9, "{}", v.name);
+            assert!(dq.iter().all(|x| x.abs() < 1e-9), "{}: {dq:?}", v.name);
+        }
+        // Steps for the first and second differences, s: small enough for the truncation
+        // error, large enough for the IK tolerance.
+        let (h1, h2) = (1e-4, 1e-3);
+        let (mut ep, mut ev, mut ea, mut held_moved) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for k in 0..run.via.len() - 1 {
+            let (a, b) = (run.via[k].tcp_m, run.via[k + 1].tcp_m);
+            let len = (b - a).norm();
+            let profile = SCurve::new(len, speed, lim.accel_m_s2, lim.jerk_m_s3).unwrap();
+            let (t0, t1) = (run.via[k].arrival_s, run.via[k + 1].arrival_s);
+            for i in 0..40 {
+                let t = t0 + (t1 - t0) * (i as f64 + 0.377) / 40.0;
+                let (q, dq, ddq) = at(&run.motion, t);
+                let q_true = |t: f64| {
+                    let p = a + (b - a) * (profile.sample(t - t0)[0] / len);
+                    let pose = Isometry3::from_parts(Translation3::from(p), sc.orientation());
+                    dls::solve_held(&robot, &pose, &tcp, &q, &tight, &held).unwrap()
+                };
+                let q0 = q_true(t);
+                let (vm, vp) = (q_true(t - h1), q_true(t + h1));
+                let (am, ap) = (q_true(t - h2), q_true(t + h2));
+                for j in 0..robot.dof() {
+                    ep = ep.max((q[j] - q0[j]).abs());
+                    ev = ev.max(((vp[j] - vm[j]) / (2.0 * h1) - dq[j]).abs());
+                    ea = ea.max(((ap[j] - 2.0 * q0[j] + am[j]) / (h2 * h2) - ddq[j]).abs());
+                }
+                for &j in &held {
+                    held_moved = held_moved.max((q[j] - sc.seed_rad[j]).abs());
+                    held_moved = held_moved.max(dq[j].abs()).max(ddq[j].abs());
+                }
+            }
+        }
+        eprintln!(
+            "{}: q {ep:.3e} rad, dq {ev:.3e} rad/s, ddq {ea:.3e} rad/s^2 from the \
+             reconstruction; held joints moved {held_moved:.3e}",
+            robot.name()
+        );
+        assert!(ep < 1e-8, "{}: q differs by {ep:.3e} rad", robot.name());
+        assert!(ev < 2e-6, "{}: dq differs by {ev:.3e} rad/s", robot.name());
+        assert!(
+            ea < 1e-2,
+            "{}: ddq differs by {ea:.3e} rad/s^2",
+            robot.name()
+        );
+        assert_eq!(held_moved, 0.0, "{}", robot.name());
+    }
+}
+
+#[test]
+fn numerical_linear_moves_name_what_fails() {
+    let (ur5, _, _) = load(&UR5);
+    let sc = Scenario::from_file(&repo(UR5.scenario)).unwrap();
+    let pose = |name: &str, p: [f64; 3]| ViaPose {
+        name: name.into(),
+        tcp: Isometry3::from_parts(Translation3::from(Vector3::from(p)), sc.orientation()),
+    };
+    let a = pose("A", [0.45, 0.0, 0.30]);
+    let opts = &sc.motion;
+    // A via point out of reach is named.
+    let far = [a.clone(), pose("far", [1.5, 0.0, 0.3])];
+    let e = plan(&ur5, &sc.tcp(), &sc.seed_rad, &far, 0.3, opts).unwrap_err();
+    assert!(matches!(e, Error::Unreachable(_)), "{e}");
+    assert!(e.to_string().contains("via point 2 'far'"), "{e}");
+    // A 6-joint arm holds no joint; a 7-joint arm holds one, given once and in range.
+    let mut held = opts.clone();
+    held.hold_joints = vec![3];
+    let e = plan(&ur5, &sc.tcp(), &sc.seed_rad, &far, 0.3, &held).unwrap_err();
+    assert!(e.to_string().contains("holds 0 joints"), "{e}");
+    let (panda, _, _) = load(&PANDA);
+    let sp = Scenario::from_file(&repo(PANDA.scenario)).unwrap();
+    for bad in [vec![3, 4], vec![8], vec![0]] {
+        let mut sc = sp.clone();
+        sc.motion.hold_joints = bad.clone();
+        let e = sc.plan(&panda, 0.3, 0.0).unwrap_err();
+        assert!(matches!(e, Error::InvalidInput(_)), "{bad:?}: {e}");
+    }
+    // Without hold_joints, one joint is chosen and held for the whole task.
+    let mut auto = sp.clone();
+    auto.motion.hold_joints.clear();
+    let run = auto.plan(&panda, 0.3, 0.0).unwrap();
+    let fixed: Vec<usize> = (0..7)
+        .filter(|&j| {
+            let q0 = at(&run.motion, 0.0).0[j];
+            (0..200).all(|i| {
+                let t = run.motion.duration_s * i as f64 / 199.0;
+                at(&run.motion, t).0[j] == q0
+            })
+        })
+        .collect();
+    eprintln!("panda: automatically held joint(s) {fixed:?} (1-based: +1)");
+    assert_eq!(fixed.len(), 1, "{fixed:?}");
+    // A robot with fewer than 6 joints cannot follow a TCP pose.
+    let five = load_file(
+        &repo(UR5.urdf),
+        &LoadOptions {
+            lock: vec!["wrist_3_joint".into()],
+        },
+    )
+    .unwrap();
+    let e = plan(
+        &five,
+        &sc.tcp(),
+        &[0.0; 5],
+        &far,
+        0.3,
+        &LinearMoveOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, Error::Model(_)), "{e}");
 }

@@ -257,6 +257,13 @@ pub fn plan(
             via.len()
         )));
     }
+    if robot.dof() < 6 {
+        return Err(Error::Model(format!(
+            "robot '{}' has {} joints; linear TCP moves need at least 6",
+            robot.name(),
+            robot.dof()
+        )));
+    }
     robot.check_len(seed, "seed")?;
     crate::error::ensure_finite(seed, "seed")?;
     validate(robot, options)?;
@@ -316,7 +323,8 @@ enum Solver {
 
 impl Solver {
     /// The solver for `robot`: closed form when it is of the OPW class, else numerical with
-    /// the held joints of `options` (or, for 7 joints, chosen on the via points).
+    /// the held joints of `options` (or, for 7 joints, chosen on the via points). `robot` has
+    /// at least 6 joints.
     fn new(
         robot: &Robot,
         tcp: &Isometry3<f64>,
@@ -325,12 +333,6 @@ impl Solver {
         options: &LinearMoveOptions,
     ) -> Result<Solver> {
         let n = robot.dof();
-        if n < 6 {
-            return Err(Error::Model(format!(
-                "robot '{}' has {n} joints; linear TCP moves need at least 6",
-                robot.name()
-            )));
-        }
         let given = &options.hold_joints;
         if !given.is_empty() && given.len() != n - 6 {
             return Err(Error::InvalidInput(format!(
