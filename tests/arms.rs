@@ -561,6 +561,11 @@ fn numerical_linear_moves_name_what_fails() {
     let e = plan(&ur5, &sc.tcp(), &sc.seed_rad, &far, 0.3, opts).unwrap_err();
     assert!(matches!(e, Error::Unreachable(_)), "{e}");
     assert!(e.to_string().contains("via point 2 'far'"), "{e}");
+    // A leg over the base axis (the UR5's shoulder singularity) fails on the segment, named.
+    let over = [a.clone(), pose("behind", [-0.45, 0.0, 0.30])];
+    let e = plan(&ur5, &sc.tcp(), &sc.seed_rad, &over, 0.3, opts).unwrap_err();
+    eprintln!("ur5 over the base axis: {e}");
+    assert!(e.to_string().contains("segment 1 (A -> behind)"), "{e}");
     // A 6-joint arm holds no joint; a 7-joint arm holds one, given once and in range.
     let mut held = opts.clone();
     held.hold_joints = vec![3];
@@ -607,4 +612,35 @@ fn numerical_linear_moves_name_what_fails() {
     )
     .unwrap_err();
     assert!(matches!(e, Error::Model(_)), "{e}");
+}
+
+#[test]
+fn every_cell_of_both_scenarios_plans_within_the_joint_limits() {
+    for arm in [&UR5, &PANDA] {
+        let (robot, _, _) = load(arm);
+        let sc = Scenario::from_file(&repo(arm.scenario)).unwrap();
+        let acc = &sc.motion.limits.joint_accel_rad_s2;
+        let planned = sweep::plan(&robot, &sc).unwrap();
+        assert_eq!(
+            planned.len(),
+            sc.sweep.speeds_m_s.len() * sc.sweep.loads_kg.len()
+        );
+        let mut cycle = Vec::new();
+        for p in &planned {
+            check_limits(&robot, &p.plan.motion, 1e-3, Some(acc)).unwrap();
+            if p.load == 0.0 {
+                cycle.push((
+                    p.speed,
+                    p.plan.motion.duration_s,
+                    p.plan.motion.slowed.len(),
+                ));
+            }
+        }
+        eprintln!(
+            "{}: (speed m/s, cycle s, slowed legs) {cycle:?}",
+            robot.name()
+        );
+        // Faster commands never give a longer cycle.
+        assert!(cycle.windows(2).all(|w| w[1].1 <= w[0].1), "{cycle:?}");
+    }
 }
