@@ -98,6 +98,8 @@ fn load(arm: &Arm) -> (Robot, Drive, Urdf) {
 /// Excitations designed per arm, and 10 s periods of each.
 const EXCITATIONS: usize = 3;
 const PERIODS: usize = 4;
+/// Seeds of the held-out random motions.
+const HELDOUT_SEEDS: [u64; 3] = [11, 12, 13];
 /// Rapier substeps per physics step.
 const SUBSTEPS: usize = 3;
 
@@ -125,6 +127,11 @@ fn run(rig: &Rig, traj: &dyn Trajectory, run: u64) -> Dataset {
         rig.robot.name()
     );
     data
+}
+
+/// The arm's true standby power, W (for scoring only).
+fn standby_w(drive: &Drive) -> f64 {
+    drive.joints().iter().map(|j| j.standby_power).sum()
 }
 
 /// The library chain on one arm, with the figures printed and checked against `bounds`.
@@ -205,7 +212,7 @@ fn chain(arm: &Arm, bounds: &Bounds) {
         .max_by(|a, b| a.cond_final.total_cmp(&b.cond_final))
         .unwrap();
 
-    // Predict a held-out motion: a random Fourier motion from another seed, differentiated by
+    // Predict held-out motions: random Fourier motions from other seeds, differentiated by
     // smoothing as for any logged motion.
     let heldout_opts = RandomFourierOptions {
         accel_limits: accel,
@@ -213,19 +220,33 @@ fn chain(arm: &Arm, bounds: &Bounds) {
         min_amplitude: 0.3,
         ..RandomFourierOptions::default()
     };
-    let traj = random_fourier(&robot, &mut common::rng(11), &heldout_opts).unwrap();
-    let heldout = run(&rig, &traj, 100);
-    let p = prepare(
-        &heldout.log("held out").unwrap(),
-        Route::Smoothing {
-            window: 9,
-            degree: 4,
-        },
-    )
-    .unwrap();
-    let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3).unwrap();
-    let simulated = heldout.meta.summary.energy_total_j;
-    let heldout_pct = 100.0 * (predicted - simulated) / simulated;
+    let mut heldout = Vec::new();
+    for seed in HELDOUT_SEEDS {
+        let traj = random_fourier(&robot, &mut common::rng(seed), &heldout_opts).unwrap();
+        let data = run(&rig, &traj, 100 + seed);
+        let p = prepare(
+            &data.log("held out").unwrap(),
+            Route::Smoothing {
+                window: 9,
+                degree: 4,
+            },
+        )
+        .unwrap();
+        let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3).unwrap();
+        let simulated = data.meta.summary.energy_total_j;
+        // The share above the true standby power (scored with the truth, never fitted on it).
+        let above = simulated - standby_w(&drive) * traj.duration();
+        heldout.push((
+            predicted,
+            simulated,
+            100.0 * (predicted - simulated) / simulated,
+            100.0 * (predicted - simulated) / above,
+        ));
+    }
+    let heldout_pct = heldout
+        .iter()
+        .map(|h| h.2)
+        .fold(0.0f64, |a, b| if b.abs() > a.abs() { b } else { a });
 
     // Sweep: two speeds, one load, predicted from the plan with the known tool and loads.
     let mut scenario = scenario;
@@ -244,8 +265,8 @@ fn chain(arm: &Arm, bounds: &Bounds) {
     eprintln!(
         "{}: excitation cond {:.1} -> {:.1}; identification residual RMS {:.3} W over {} \
          samples, cond {:.1}, consistent {} (min mass-matrix eigenvalue {:.4} kg m^2, \
-         negative drive terms {:?}); held out: predicted {predicted:.1} J, simulated \
-         {simulated:.1} J ({heldout_pct:+.3} %)",
+         negative drive terms {:?}); held out (predicted J, simulated J, error %, error % of the energy above \
+         standby): {heldout:.3?}; identified standby {:.2} W, true {:.2} W",
         robot.name(),
         ex.cond_initial,
         ex.cond_final,
@@ -254,7 +275,9 @@ fn chain(arm: &Arm, bounds: &Bounds) {
         est.cond,
         consistent.consistent,
         consistent.min_eigenvalue,
-        consistent.negative_drive_terms
+        consistent.negative_drive_terms,
+        model.constant.iter().sum::<f64>(),
+        standby_w(&drive),
     );
     for c in &result.cells {
         eprintln!(
@@ -291,7 +314,7 @@ fn chain(arm: &Arm, bounds: &Bounds) {
     );
     assert!(
         heldout_pct.abs() < bounds.heldout_pct,
-        "{}: held-out energy error {heldout_pct} %",
+        "{}: worst held-out energy error {heldout_pct} %",
         robot.name()
     );
     let [slow, fast] = [&result.cells[0], &result.cells[1]];
@@ -319,11 +342,11 @@ fn chain(arm: &Arm, bounds: &Bounds) {
 
 // Bounds: about twice the figures measured (2026-11-23, this machine) unless stated; the
 // residual at the power meter's noise (1 W) plus 30 %. Measured UR5: design condition numbers
-// up to 1067, identification 106.1, residual 0.99 W, held out -0.71 %, sweep -0.60 % and
-// -0.33 %. Measured Panda: 4194, 75.2, 0.94 W, -2.47 %, +0.13 % and +0.09 %. The held-out
-// bound is the accuracy issue's "realistic truth" worst case (2 %) for the UR5; the Panda's
-// one motion misses by 2.5 % (its energy is small: 330 J in 10 s, 280 J of it standby), so
-// its bound is 4 %.
+// up to 1067, identification 106.1, residual 0.99 W, held out -0.71, -0.94, -0.62 %, sweep
+// -0.60 % and -0.33 %. Measured Panda: 4194, 75.2, 0.94 W, -2.47, -1.76, -1.08 %, +0.13 % and
+// +0.09 %. The held-out bound is the accuracy issue's "realistic truth" worst case (2 %) for
+// the UR5; the Panda's motions spend little above its standby power (about 50 of 330 J), so
+// its identified standby (27.46 W against 28 W) dominates the miss and its bound is 4 %.
 
 #[test]
 fn ur5_excite_identify_predict_and_sweep() {
