@@ -393,6 +393,48 @@ fn unreachable_via_points_and_blocked_segments_are_named() {
 }
 
 #[test]
+fn a_robot_carrying_its_own_end_effector_needs_only_a_tcp() {
+    let text = edited(
+        "tool = \"tool\"",
+        "tool = \"none\"\ntcp_m = [0.0, 0.0, 0.1]",
+    );
+    let sc = Scenario::from_toml_str(&text, "none.toml").unwrap();
+    assert_eq!(sc.tool, None);
+    assert_eq!(sc.tcp().translation.vector, Vector3::new(0.0, 0.0, 0.1));
+    let run = sc.plan(&common::irb1200(), 0.3, 2.0).unwrap();
+    // Nothing on the flange at the start and after each release; the cube alone in between.
+    let masses: Vec<Option<f64>> = run
+        .events
+        .iter()
+        .map(|e| e.payload.as_ref().map(|p| p.inertia.mass))
+        .collect();
+    assert_eq!(masses, [None, Some(1.0), None, Some(2.0), None]);
+    let com = run.events[1].payload.as_ref().unwrap().inertia.com;
+    assert_eq!(com, Vector3::new(0.0, 0.0, 0.1));
+    // tool = "none" without tcp_m, and tcp_m beside a real tool, are errors.
+    for (text, needle) in [
+        (edited("tool = \"tool\"", "tool = \"none\""), "needs tcp_m"),
+        (
+            edited(
+                "tool = \"tool\"",
+                "tool = \"tool\"\ntcp_m = [0.0, 0.0, 0.1]",
+            ),
+            "applies only",
+        ),
+        (
+            edited(
+                "tool = \"tool\"",
+                "tool = \"none\"\ntcp_m = [0.0, nan, 0.1]",
+            ),
+            "finite",
+        ),
+    ] {
+        let e = Scenario::from_toml_str(&text, "bad.toml").unwrap_err();
+        assert!(e.to_string().contains(needle), "{e}");
+    }
+}
+
+#[test]
 fn bad_files_give_clear_errors() {
     let toml_err = |text: &str| match Scenario::from_toml_str(text, "bad.toml") {
         Err(Error::Toml { file, message }) => {
