@@ -62,7 +62,7 @@ fn builtin_scenario_has_the_papers_path_points_and_sweep() {
     assert_eq!(sc.point("C"), Some(Vector3::new(0.30, 0.30, 0.15)));
     assert_eq!(sc.sweep.speeds_m_s, [0.05, 0.1, 0.3, 0.5, 0.8, 1.0]);
     assert_eq!(sc.sweep.loads_kg, [0.0, 2.0, 4.0]);
-    assert_eq!(sc.tool.inertia.mass, TOOL_KG);
+    assert_eq!(sc.tool.as_ref().map(|t| t.inertia.mass), Some(TOOL_KG));
     assert_eq!(sc.tcp().translation.vector, Vector3::new(0.0, 0.0, 0.120));
     // Tool pointing down: tool z = -z_base, tool x = -x_base.
     let r = sc.orientation();
@@ -390,6 +390,48 @@ fn unreachable_via_points_and_blocked_segments_are_named() {
         err.to_string().contains("segment 1 (via 1 -> via 2)"),
         "{err}"
     );
+}
+
+#[test]
+fn a_robot_carrying_its_own_end_effector_needs_only_a_tcp() {
+    let text = edited(
+        "tool = \"tool\"",
+        "tool = \"none\"\ntcp_m = [0.0, 0.0, 0.1]",
+    );
+    let sc = Scenario::from_toml_str(&text, "none.toml").unwrap();
+    assert_eq!(sc.tool, None);
+    assert_eq!(sc.tcp().translation.vector, Vector3::new(0.0, 0.0, 0.1));
+    let run = sc.plan(&common::irb1200(), 0.3, 2.0).unwrap();
+    // Nothing on the flange at the start and after each release; the cube alone in between.
+    let masses: Vec<Option<f64>> = run
+        .events
+        .iter()
+        .map(|e| e.payload.as_ref().map(|p| p.inertia.mass))
+        .collect();
+    assert_eq!(masses, [None, Some(1.0), None, Some(2.0), None]);
+    let com = run.events[1].payload.as_ref().unwrap().inertia.com;
+    assert_eq!(com, Vector3::new(0.0, 0.0, 0.1));
+    // tool = "none" without tcp_m, and tcp_m beside a real tool, are errors.
+    for (text, needle) in [
+        (edited("tool = \"tool\"", "tool = \"none\""), "needs tcp_m"),
+        (
+            edited(
+                "tool = \"tool\"",
+                "tool = \"tool\"\ntcp_m = [0.0, 0.0, 0.1]",
+            ),
+            "applies only",
+        ),
+        (
+            edited(
+                "tool = \"tool\"",
+                "tool = \"none\"\ntcp_m = [0.0, nan, 0.1]",
+            ),
+            "finite",
+        ),
+    ] {
+        let e = Scenario::from_toml_str(&text, "bad.toml").unwrap_err();
+        assert!(e.to_string().contains(needle), "{e}");
+    }
 }
 
 #[test]

@@ -8,8 +8,8 @@ use clap::Args;
 use powertwin::io::table::to_csv;
 use powertwin::io::write_atomic;
 use powertwin::trajectory::Trajectory;
-use powertwin::trajectory::excitation::{ExcitationOptions, design};
-use powertwin::trajectory::limits::IRB1200_ACCEL_LIMITS;
+use powertwin::trajectory::excitation::{ExcitationOptions, design, rest_pose};
+use powertwin::trajectory::limits::default_accel_limits;
 use serde_json::json;
 
 use super::RobotArgs;
@@ -20,9 +20,9 @@ pub struct ExciteArgs {
     #[command(flatten)]
     robot: RobotArgs,
     /// Joints to excite, 1-based: a range like 4-6 or a list like 1,3,5 (others hold the rest
-    /// pose).
-    #[arg(long, default_value = "1-6")]
-    joints: String,
+    /// pose) [default: all].
+    #[arg(long)]
+    joints: Option<String>,
     /// Base frequency, Hz.
     #[arg(long, default_value_t = 0.1)]
     base_freq: f64,
@@ -33,11 +33,13 @@ pub struct ExciteArgs {
     #[arg(long, default_value_t = 1)]
     periods: usize,
     /// Rest pose (rad, comma-separated): offsets start there and joints that are not
-    /// excited hold it [default: 0,0.2,0.2,0,0.8,0 for a 6-joint robot, else zeros].
+    /// excited hold it [default: 0,0.2,0.2,0,0.8,0 for the IRB 1200, else derived from the
+    /// URDF: zeros clamped into the limits, or the nearest pose that keeps the flange and
+    /// wrist above the floor and away from the base].
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     rest_pose: Vec<f64>,
     /// Acceleration limits, rad/s^2, comma-separated [default: the IRB 1200 estimates
-    /// 15,15,20,30,30,40].
+    /// 15,15,20,30,30,40 for the IRB 1200, else each URDF velocity limit / 0.3 s].
     #[arg(long, value_delimiter = ',')]
     accel_limits: Vec<f64>,
     /// Independent optimiser starts.
@@ -85,25 +87,28 @@ fn parse_joints(s: &str, dof: usize) -> Result<Vec<usize>> {
 pub fn run(args: &ExciteArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let n = robot.dof();
-    let joints = parse_joints(&args.joints, n)?;
-    let rest = if args.rest_pose.is_empty() {
-        if n == 6 {
-            vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0]
-        } else {
-            vec![0.0; n]
-        }
-    } else {
-        args.rest_pose.clone()
+    let joints = match &args.joints {
+        Some(s) => parse_joints(s, n)?,
+        None => (0..n).collect(),
     };
     let accel = if args.accel_limits.is_empty() {
-        if n != 6 {
-            bail!("give --accel-limits for a robot with {n} joints");
-        }
-        IRB1200_ACCEL_LIMITS.to_vec()
+        default_accel_limits(&robot)
     } else {
         args.accel_limits.clone()
     };
-    let mut opts = ExcitationOptions::new(&robot, joints.clone(), rest, accel);
+    let mut opts = ExcitationOptions::new(&robot, joints.clone(), vec![0.0; n], accel);
+    opts.rest_pose = if !args.rest_pose.is_empty() {
+        args.rest_pose.clone()
+    } else if robot.name() == "abb_irb1200_7_70" {
+        vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0]
+    } else {
+        rest_pose(
+            &robot,
+            opts.position_margin + 0.05,
+            opts.floor_z,
+            opts.base_radius,
+        )?
+    };
     opts.base_freq_hz = args.base_freq;
     opts.harmonics = args.harmonics;
     opts.periods = args.periods;

@@ -7,6 +7,9 @@
 //! ([`crate::kinematics::jacobian`]), clamps `q + dq` into the position limits and is kept
 //! only if it lowers `|e|^2`; `lambda` is divided by 10 after an accepted step and multiplied
 //! by 10 after a rejected one. Joint angles are in rad.
+//!
+//! [`solve_held`] keeps some joints at their seed values (their Jacobian columns are left out),
+//! which turns a redundant arm into a square problem with a locally unique solution.
 
 use nalgebra::{Isometry3, Matrix6xX, UnitQuaternion, Vector3, Vector6};
 
@@ -64,7 +67,30 @@ pub fn solve(
     seed: &[f64],
     opts: &DlsOptions,
 ) -> Result<Vec<f64>> {
+    solve_held(robot, target_tcp, tcp, seed, opts, &[])
+}
+
+/// [`solve`] with the joints `held` (0-based) kept at their seed values (clamped into their
+/// limits): only the other joints move. With `n - 6` joints held on an `n`-joint arm the
+/// problem is square, so the solution near the seed is locally unique.
+///
+/// # Errors
+/// Those of [`solve`], and [`Error::InvalidInput`] for a held joint index out of range.
+pub fn solve_held(
+    robot: &Robot,
+    target_tcp: &Isometry3<f64>,
+    tcp: &Isometry3<f64>,
+    seed: &[f64],
+    opts: &DlsOptions,
+    held: &[usize],
+) -> Result<Vec<f64>> {
     robot.check_len(seed, "seed")?;
+    if let Some(j) = held.iter().find(|&&j| j >= robot.dof()) {
+        return Err(Error::InvalidInput(format!(
+            "held joint index {j} is out of range for {} joints",
+            robot.dof()
+        )));
+    }
     ensure_pose_finite(target_tcp, "target TCP pose")?;
     ensure_pose_finite(tcp, "TCP offset")?;
     let n = robot.dof();
@@ -81,6 +107,7 @@ pub fn solve(
     let mut trial = q.clone();
     let mut jac = Matrix6xX::zeros(n);
     let mut err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
+    hold_columns(&mut jac, held);
     let mut lambda = opts.initial_damping;
     let mut steps = 0;
     while !converged(&err, opts) && steps < opts.max_iterations && lambda <= MAX_DAMPING {
@@ -104,6 +131,7 @@ pub fn solve(
         if trial_err.norm_squared() < err.norm_squared() {
             std::mem::swap(&mut q, &mut trial);
             err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
+            hold_columns(&mut jac, held);
             lambda = (lambda * 0.1).max(MIN_DAMPING);
         } else {
             lambda *= 10.0;
@@ -121,6 +149,13 @@ pub fn solve(
         opts.position_tolerance,
         opts.orientation_tolerance
     )))
+}
+
+/// Zero the Jacobian columns of the held joints: the damped step then leaves them alone.
+fn hold_columns(jac: &mut Matrix6xX<f64>, held: &[usize]) {
+    for &j in held {
+        jac.column_mut(j).fill(0.0);
+    }
 }
 
 fn converged(err: &Vector6<f64>, opts: &DlsOptions) -> bool {

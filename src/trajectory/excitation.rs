@@ -310,6 +310,69 @@ pub fn identifiable_columns(
     Ok(base.independent().to_vec())
 }
 
+/// Candidate poses drawn by [`rest_pose`] when the centre pose violates the workspace.
+const REST_CANDIDATES: usize = 4000;
+
+/// A rest pose for an excitation of `robot`, derived from its URDF: every joint at 0 clamped
+/// into its position limits less `margin` (rad), or, when the flange or the wrist (the origin
+/// of the second-to-last link frame) is then below `floor_z` (m) or within `base_radius` (m) of
+/// the base z axis (with 0.02 m to spare), the seeded random pose within those limits
+/// (each joint within [-pi, pi]) that satisfies the workspace and lies nearest that pose.
+///
+/// Errors: [`Error::InvalidInput`] when a joint's range is not wider than `2 margin`, or no
+/// drawn pose satisfies the workspace.
+pub fn rest_pose(robot: &Robot, margin: f64, floor_z: f64, base_radius: f64) -> Result<Vec<f64>> {
+    let n = robot.dof();
+    let mut ranges = Vec::with_capacity(n);
+    for j in robot.joints() {
+        let lo = (j.limits.lower + margin).max(-std::f64::consts::PI);
+        let hi = (j.limits.upper - margin).min(std::f64::consts::PI);
+        if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+            return Err(Error::InvalidInput(format!(
+                "joint '{}': no rest pose {margin} rad inside its limits [{}, {}] rad",
+                j.name, j.limits.lower, j.limits.upper
+            )));
+        }
+        ranges.push((lo, hi));
+    }
+    let centre: Vec<f64> = ranges
+        .iter()
+        .map(|&(lo, hi)| 0.0_f64.clamp(lo, hi))
+        .collect();
+    let mut poses = vec![nalgebra::Isometry3::identity(); n];
+    let mut clear = |q: &[f64]| {
+        link_poses(robot, q, &mut poses);
+        let flange = poses[n - 1] * robot.flange();
+        [
+            poses[n.saturating_sub(2)].translation.vector,
+            flange.translation.vector,
+        ]
+        .iter()
+        .all(|p| p.z >= floor_z + 0.02 && Vector3::new(p.x, p.y, 0.0).norm() >= base_radius + 0.02)
+    };
+    if clear(&centre) {
+        return Ok(centre);
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for _ in 0..REST_CANDIDATES {
+        let q: Vec<f64> = ranges
+            .iter()
+            .map(|&(lo, hi)| rng.random_range(lo..hi))
+            .collect();
+        let d: f64 = q.iter().zip(&centre).map(|(a, b)| (a - b).powi(2)).sum();
+        if best.as_ref().is_none_or(|(bd, _)| d < *bd) && clear(&q) {
+            best = Some((d, q));
+        }
+    }
+    best.map(|(_, q)| q).ok_or_else(|| {
+        Error::InvalidInput(format!(
+            "no pose of {REST_CANDIDATES} drawn keeps the flange and wrist above z = {floor_z} m \
+             and {base_radius} m from the base axis; give a rest pose"
+        ))
+    })
+}
+
 /// Design an excitation trajectory for `robot`.
 pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
     let start = Instant::now();

@@ -9,6 +9,25 @@ use super::Trajectory;
 /// publishes none; these are estimates (`shared/reference/irb1200.md`, section 2).
 pub const IRB1200_ACCEL_LIMITS: [f64; 6] = [15.0, 15.0, 20.0, 30.0, 30.0, 40.0];
 
+/// Time, s, in which a joint of a robot without published acceleration bounds is assumed to
+/// reach its URDF velocity limit from rest (estimate: the IRB 1200's bounds,
+/// [`IRB1200_ACCEL_LIMITS`], give 0.11-0.29 s; the Franka Panda's published ones 0.13-0.29 s).
+pub const ACCEL_TIME_S: f64 = 0.3;
+
+/// Default joint acceleration bounds, rad/s^2: [`IRB1200_ACCEL_LIMITS`] for the IRB 1200
+/// (robot name `abb_irb1200_7_70`), else each joint's URDF velocity limit divided by
+/// [`ACCEL_TIME_S`] (an estimate; give the robot's own values where published).
+pub fn default_accel_limits(robot: &Robot) -> Vec<f64> {
+    if robot.name() == "abb_irb1200_7_70" && robot.dof() == IRB1200_ACCEL_LIMITS.len() {
+        return IRB1200_ACCEL_LIMITS.to_vec();
+    }
+    robot
+        .joints()
+        .iter()
+        .map(|j| j.limits.velocity / ACCEL_TIME_S)
+        .collect()
+}
+
 /// Sample `traj` every `dt` seconds from 0 (and at its end) and check position and velocity
 /// against the robot's joint limits, and acceleration against `accel_limits` (rad/s^2, one
 /// per joint) when given. A non-finite sample counts as a violation.

@@ -15,12 +15,30 @@
 //! starts and ends at rest.
 //!
 //! # Joint motion
-//! At every sample the joint angles come from the closed-form inverse kinematics
-//! ([`Opw::solve_nearest`]) seeded with the previous sample, so the arm keeps its
-//! configuration along the path; the start uses the caller's seed. Joint velocities and
-//! accelerations are the exact derivatives: `dq = J^-1 [v; w]` and
-//! `ddq = J^-1 ([a; alpha] - Jdot dq)` with the geometric Jacobian `J` of the TCP and
-//! [`bias_acceleration`]. The samples (at most `sample_period_s` apart, with a sample at every
+//! At every sample the joint angles come from the inverse kinematics seeded with the previous
+//! sample, so the arm keeps its configuration along the path; the start uses the caller's
+//! seed. Robots of the OPW class use the closed form ([`Opw::solve_nearest`]); any other arm
+//! with 6 or more joints uses damped least squares ([`dls::solve_held`]) started at the
+//! previous sample extrapolated by its velocity and acceleration (one or two Gauss-Newton steps
+//! reach 1e-10 m and 1e-10 rad), and an error names the via point, or the segment, time and
+//! fraction of the way, where it does not converge. Joint velocities and accelerations are the
+//! exact derivatives: `dq = J^-1 [v; w]` and `ddq = J^-1 ([a; alpha] - Jdot dq)` with the
+//! geometric Jacobian `J` of the TCP (its columns of the moving joints, a 6 x 6 matrix) and
+//! [`bias_acceleration`].
+//!
+//! # Redundant arms
+//! An arm with `n > 6` joints (the 7-joint Franka Panda) holds `n - 6` joints at the seed's
+//! values for the whole motion ([`LinearMoveOptions::hold_joints`]), so the other six solve a
+//! square problem: the IK solution near the previous sample is locally unique (no drift along
+//! the self-motion), and `dq`, `ddq` are exact as above with zeros for the held joints. This
+//! is how analytic solutions of the Panda parametrise its redundancy (He and Liu 2021 hold
+//! `q7`); the seed's value of the held joint chooses the arm's "elbow" posture. Without
+//! `hold_joints`, a 7-joint arm holds the joint that leaves the best-conditioned Jacobian: the
+//! one whose smallest singular value of the remaining 6 x 6 Jacobian, minimised over the via
+//! points (solved in order from the seed), is largest; a joint whose choice leaves a via point
+//! unreachable is not taken. More than 7 joints need `hold_joints`.
+//!
+//! The samples (at most `sample_period_s` apart, with a sample at every
 //! via point) are joined by quintic Hermite pieces ([`Sampled`]), which reproduce the line to
 //! well below a micrometre between samples.
 //!
@@ -37,6 +55,7 @@ use nalgebra::{Isometry3, Matrix6, Matrix6xX, Translation3, UnitQuaternion, Vect
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::kinematics::dls::{self, DlsOptions};
 use crate::kinematics::ik::Opw;
 use crate::kinematics::jacobian::{bias_acceleration, geometric_into};
 use crate::model::Robot;
@@ -64,6 +83,9 @@ const ZERO_MOTION: f64 = 1e-9;
 /// Largest deviation (rad) of a joint step from the trapezoidal integral of its velocities
 /// before the step counts as a jump of the inverse kinematics to another configuration.
 const JUMP_TOL: f64 = 1e-2;
+/// Initial damping of the numerical IK between samples, where the start is within
+/// micrometres of the solution and Gauss-Newton steps converge at once (see [`DlsOptions`]).
+const TRACKING_DAMPING: f64 = 1e-9;
 
 /// Cartesian and joint bounds of a linear move. Defaults: the Cartesian limits that the
 /// MoveIt Setup Assistant writes for the Pilz planner, as configured for the IRB 1200 in
@@ -117,6 +139,10 @@ pub struct LinearMoveOptions {
     pub dwell_s: f64,
     /// Cartesian and joint bounds.
     pub limits: MotionLimits,
+    /// Joints (1-based) held at the seed's values on an arm with more than 6 joints, `n - 6`
+    /// of them (see the [module docs](self)). Default empty: chosen automatically for a
+    /// 7-joint arm; must stay empty for an arm with 6 joints.
+    pub hold_joints: Vec<usize>,
 }
 
 impl Default for LinearMoveOptions {
@@ -125,6 +151,7 @@ impl Default for LinearMoveOptions {
             sample_period_s: 0.002,
             dwell_s: 0.0,
             limits: MotionLimits::default(),
+            hold_joints: Vec::new(),
         }
     }
 }
@@ -201,9 +228,11 @@ impl Trajectory for LinearMotion {
 ///   points, a seed of the wrong length, non-finite poses, bad options (non-positive or
 ///   non-finite bounds, joint bounds of the wrong length, sample period outside `(0, 0.1]`,
 ///   negative dwell), or all via points equal without dwell.
-/// - [`Error::Model`]: the robot is not of the OPW class (no closed-form IK).
-/// - [`Error::Unreachable`]: a via point or a pose on a segment is out of reach, or the
-///   inverse kinematics has to change configuration on a segment (a singularity on the line).
+/// - [`Error::Model`]: the robot has fewer than 6 joints (it cannot follow a TCP pose), or
+///   more than 7 without [`LinearMoveOptions::hold_joints`].
+/// - [`Error::Unreachable`]: a via point or a pose on a segment is out of reach, the numerical
+///   inverse kinematics does not converge there, or the inverse kinematics has to change
+///   configuration on a segment (a singularity on the line).
 /// - [`Error::JointLimit`]: a via point or a pose on a segment is outside the position limits
 ///   in every configuration, or a segment would need less than [`MIN_SPEED_FRACTION`] of its
 ///   speed to respect the joint velocity and acceleration limits.
@@ -228,32 +257,25 @@ pub fn plan(
             via.len()
         )));
     }
-    robot.check_len(seed, "seed")?;
-    validate(robot, options)?;
-    let opw = Opw::from_robot(robot).ok_or_else(|| {
-        Error::Model(format!(
-            "robot '{}' is not of the OPW class; linear moves need its closed-form inverse \
-             kinematics",
-            robot.name()
-        ))
-    })?;
-    let ctx = Context::new(robot, opw, tcp, options);
-    // Every via point on its own, seeded with the previous one, for errors that name it.
-    let mut q_start = [0.0; 6];
-    let mut prev = seed.to_vec();
-    for (k, v) in via.iter().enumerate() {
-        let q = ctx
-            .opw
-            .solve_nearest(&v.tcp, tcp, &prev)
-            .map_err(|e| located(e, &describe_via(k, v)))?;
-        if k == 0 {
-            q_start = q;
-        }
-        prev = q.to_vec();
+    if robot.dof() < 6 {
+        return Err(Error::Model(format!(
+            "robot '{}' has {} joints; linear TCP moves need at least 6",
+            robot.name(),
+            robot.dof()
+        )));
     }
+    robot.check_len(seed, "seed")?;
+    crate::error::ensure_finite(seed, "seed")?;
+    validate(robot, options)?;
+    let solver = Solver::new(robot, tcp, seed, via, options)?;
+    let n = robot.dof();
+    let ctx = Context::new(robot, solver, tcp, options);
+    // Every via point on its own, seeded with the previous one, for errors that name it.
+    let q_start = ctx.solver.via_points(robot, tcp, seed, via)?.swap_remove(0);
 
-    let mut out = Output::new(6);
-    out.push(0.0, &q_start, &[0.0; 6], &[0.0; 6]);
+    let zero = vec![0.0; n];
+    let mut out = Output::new(n);
+    out.push(0.0, &q_start, &zero, &zero);
     let mut arrivals = vec![0.0];
     let mut slowed = Vec::new();
     let mut t = 0.0;
@@ -265,13 +287,15 @@ pub fn plan(
                 out.push(t + s.t, &s.q, &s.dq, &s.ddq);
             }
             t += planned.duration;
-            q = planned.samples.last().map_or(q, |s| s.q);
+            if let Some(s) = planned.samples.last() {
+                q.clone_from(&s.q);
+            }
             slowed.extend(planned.slowed);
         }
         arrivals.push(t);
         if options.dwell_s > 0.0 {
             t += options.dwell_s;
-            out.push(t, &q, &[0.0; 6], &[0.0; 6]);
+            out.push(t, &q, &zero, &zero);
         }
     }
     if out.t.len() < 2 {
@@ -286,6 +310,157 @@ pub fn plan(
         duration_s: t,
         slowed,
     })
+}
+
+/// The inverse kinematics of a plan.
+enum Solver {
+    /// Closed form (OPW class).
+    Opw(Box<Opw>),
+    /// Damped least squares with `held` joints (0-based) kept at the seed's values; `free`
+    /// are the others (6 of them), whose Jacobian columns are inverted.
+    Numeric { held: Vec<usize>, free: Vec<usize> },
+}
+
+impl Solver {
+    /// The solver for `robot`: closed form when it is of the OPW class, else numerical with
+    /// the held joints of `options` (or, for 7 joints, chosen on the via points). `robot` has
+    /// at least 6 joints.
+    fn new(
+        robot: &Robot,
+        tcp: &Isometry3<f64>,
+        seed: &[f64],
+        via: &[ViaPose],
+        options: &LinearMoveOptions,
+    ) -> Result<Solver> {
+        let n = robot.dof();
+        let given = &options.hold_joints;
+        if !given.is_empty() && given.len() != n - 6 {
+            return Err(Error::InvalidInput(format!(
+                "hold_joints = {given:?}: a {n}-joint arm holds {} joints during linear moves",
+                n - 6
+            )));
+        }
+        for (k, &j) in given.iter().enumerate() {
+            if j == 0 || j > n || given[..k].contains(&j) {
+                return Err(Error::InvalidInput(format!(
+                    "hold_joints = {given:?}: joint numbers must be distinct and in 1..={n}"
+                )));
+            }
+        }
+        if n == 6 {
+            return Ok(match Opw::from_robot(robot) {
+                Some(opw) => Solver::Opw(Box::new(opw)),
+                None => Solver::numeric(n, Vec::new()),
+            });
+        }
+        if !given.is_empty() {
+            return Ok(Solver::numeric(n, given.iter().map(|j| j - 1).collect()));
+        }
+        if n > 7 {
+            return Err(Error::Model(format!(
+                "robot '{}' has {n} joints: give the {} joints to hold during linear moves \
+                 (motion.hold_joints)",
+                robot.name(),
+                n - 6
+            )));
+        }
+        // Hold the joint that leaves the best-conditioned Jacobian over the via points.
+        let mut best: Option<(f64, usize)> = None;
+        let mut why = Vec::new();
+        for j in 0..n {
+            let solver = Solver::numeric(n, vec![j]);
+            match solver.via_points(robot, tcp, seed, via) {
+                Ok(qs) => {
+                    let score = qs
+                        .iter()
+                        .map(|q| solver.smallest_singular_value(robot, q, tcp))
+                        .fold(f64::INFINITY, f64::min);
+                    if best.is_none_or(|(b, _)| score > b) {
+                        best = Some((score, j));
+                    }
+                }
+                Err(e) => why.push(format!("holding joint {}: {e}", j + 1)),
+            }
+        }
+        match best {
+            Some((_, j)) => Ok(Solver::numeric(n, vec![j])),
+            None => Err(Error::Unreachable(format!(
+                "no joint of the {n}-joint arm can be held so that every via point is reached: \
+                 {}",
+                why.join("; ")
+            ))),
+        }
+    }
+
+    fn numeric(n: usize, held: Vec<usize>) -> Solver {
+        let free = (0..n).filter(|j| !held.contains(j)).collect();
+        Solver::Numeric { held, free }
+    }
+
+    /// Joint angles (rad) putting the TCP at `pose`, nearest `seed` (closed form) or found
+    /// from `seed` (numerical; `tracking`: the seed is within micrometres, so start with
+    /// Gauss-Newton steps).
+    fn solve(
+        &self,
+        robot: &Robot,
+        pose: &Isometry3<f64>,
+        tcp: &Isometry3<f64>,
+        seed: &[f64],
+        tracking: bool,
+    ) -> Result<Vec<f64>> {
+        match self {
+            Solver::Opw(opw) => opw.solve_nearest(pose, tcp, seed).map(|q| q.to_vec()),
+            Solver::Numeric { held, .. } => {
+                let mut opts = DlsOptions::default();
+                if tracking {
+                    opts.initial_damping = TRACKING_DAMPING;
+                }
+                dls::solve_held(robot, pose, tcp, seed, &opts, held)
+            }
+        }
+    }
+
+    /// Every via point solved in order, the first from `seed`, each next one from the
+    /// previous; errors name the via point.
+    fn via_points(
+        &self,
+        robot: &Robot,
+        tcp: &Isometry3<f64>,
+        seed: &[f64],
+        via: &[ViaPose],
+    ) -> Result<Vec<Vec<f64>>> {
+        let mut out: Vec<Vec<f64>> = Vec::with_capacity(via.len());
+        for (k, v) in via.iter().enumerate() {
+            let from = out.last().map_or(seed, Vec::as_slice);
+            let q = self
+                .solve(robot, &v.tcp, tcp, from, false)
+                .map_err(|e| located(e, &describe_via(k, v)))?;
+            out.push(q);
+        }
+        Ok(out)
+    }
+
+    /// The joints whose Jacobian columns form the square matrix that maps joint rates to the
+    /// TCP twist.
+    fn free(&self) -> &[usize] {
+        const ALL: [usize; 6] = [0, 1, 2, 3, 4, 5];
+        match self {
+            Solver::Opw(_) => &ALL,
+            Solver::Numeric { free, .. } => free,
+        }
+    }
+
+    /// Smallest singular value of the square Jacobian of the free joints at `q`.
+    fn smallest_singular_value(&self, robot: &Robot, q: &[f64], tcp: &Isometry3<f64>) -> f64 {
+        let mut jac = Matrix6xX::zeros(robot.dof());
+        geometric_into(robot, q, tcp, &mut jac);
+        square(&jac, self.free()).singular_values().min()
+    }
+}
+
+/// The 6 x 6 matrix of the columns `free` of `jac`.
+fn square(jac: &Matrix6xX<f64>, free: &[usize]) -> Matrix6<f64> {
+    Matrix6::from_fn(|r, c| jac[(r, free[c])])
 }
 
 /// Check the options against the robot.
@@ -357,15 +532,15 @@ fn located(e: Error, place: &str) -> Error {
 /// What every segment needs: the robot, its IK, the TCP and the bounds.
 struct Context<'a> {
     robot: &'a Robot,
-    opw: Opw,
+    solver: Solver,
     tcp: &'a Isometry3<f64>,
     limits: &'a MotionLimits,
     /// Longest time between samples, s.
     period: f64,
     /// Joint velocity bounds (URDF), rad/s.
-    vmax: [f64; 6],
+    vmax: Vec<f64>,
     /// Joint acceleration bounds, rad/s^2.
-    amax: [f64; 6],
+    amax: Vec<f64>,
     /// Joint names.
     names: Vec<&'a str>,
 }
@@ -373,19 +548,19 @@ struct Context<'a> {
 impl<'a> Context<'a> {
     fn new(
         robot: &'a Robot,
-        opw: Opw,
+        solver: Solver,
         tcp: &'a Isometry3<f64>,
         options: &'a LinearMoveOptions,
     ) -> Self {
         let joints = robot.joints();
         Context {
             robot,
-            opw,
+            solver,
             tcp,
             limits: &options.limits,
             period: options.sample_period_s,
-            vmax: std::array::from_fn(|i| joints[i].limits.velocity),
-            amax: std::array::from_fn(|i| options.limits.joint_accel_rad_s2[i]),
+            vmax: joints.iter().map(|j| j.limits.velocity).collect(),
+            amax: options.limits.joint_accel_rad_s2.clone(),
             names: joints.iter().map(|j| j.name.as_str()).collect(),
         }
     }
@@ -408,12 +583,12 @@ struct Segment<'a> {
 }
 
 /// One joint sample of a segment; `t` from the segment's start, s.
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct JointSample {
     t: f64,
-    q: [f64; 6],
-    dq: [f64; 6],
-    ddq: [f64; 6],
+    q: Vec<f64>,
+    dq: Vec<f64>,
+    ddq: Vec<f64>,
 }
 
 /// A timed segment: samples after its start (the last at the end), its duration and whether
@@ -473,7 +648,7 @@ impl<'a> Segment<'a> {
 
     /// Time the segment from joint configuration `q0` at the commanded speed, slowing it down
     /// for the joint limits; `None` for a segment without motion.
-    fn plan(&self, ctx: &Context, q0: &[f64; 6], speed_m_s: f64) -> Result<Option<PlannedSegment>> {
+    fn plan(&self, ctx: &Context, q0: &[f64], speed_m_s: f64) -> Result<Option<PlannedSegment>> {
         if self.length == 0.0 && self.angle == 0.0 {
             return Ok(None);
         }
@@ -555,25 +730,28 @@ impl<'a> Segment<'a> {
 
     /// Joint samples along the segment timed by `profile`, at most the sample period apart,
     /// after the start (which is `q0` at rest).
-    fn sample(&self, ctx: &Context, q0: &[f64; 6], profile: &SCurve) -> Result<Vec<JointSample>> {
+    fn sample(&self, ctx: &Context, q0: &[f64], profile: &SCurve) -> Result<Vec<JointSample>> {
         let duration = profile.duration();
         let period = ctx.period;
-        let n = ((duration / period).ceil() as usize).max(1);
-        let h = duration / n as f64;
-        let mut jac = Matrix6xX::zeros(6);
-        let mut out: Vec<JointSample> = Vec::with_capacity(n);
+        let last = n_samples(duration, period);
+        let h = duration / last as f64;
+        let n = ctx.robot.dof();
+        let free = ctx.solver.free();
+        let mut jac = Matrix6xX::zeros(n);
+        let mut out: Vec<JointSample> = Vec::with_capacity(last);
         let mut prev = JointSample {
             t: 0.0,
-            q: *q0,
-            dq: [0.0; 6],
-            ddq: [0.0; 6],
+            q: q0.to_vec(),
+            dq: vec![0.0; n],
+            ddq: vec![0.0; n],
         };
+        let mut guess = vec![0.0; n];
         let r0 = self.from.tcp.rotation;
         let p0 = self.from.tcp.translation.vector;
-        for i in 1..=n {
-            let t = if i == n { duration } else { i as f64 * h };
+        for i in 1..=last {
+            let t = if i == last { duration } else { i as f64 * h };
             let [u, du, ddu] = profile.sample(t);
-            let pose = if i == n {
+            let pose = if i == last {
                 self.to.tcp
             } else {
                 Isometry3::from_parts(
@@ -588,13 +766,23 @@ impl<'a> Segment<'a> {
                     u * 100.0
                 )
             };
+            // The previous sample, extrapolated (the closed form only uses it to choose the
+            // nearest of its solutions).
+            let step = t - prev.t;
+            for (j, g) in guess.iter_mut().enumerate() {
+                *g = match ctx.solver {
+                    Solver::Opw(_) => prev.q[j],
+                    Solver::Numeric { .. } => {
+                        prev.q[j] + step * (prev.dq[j] + 0.5 * step * prev.ddq[j])
+                    }
+                };
+            }
             let q = ctx
-                .opw
-                .solve_nearest(&pose, ctx.tcp, &prev.q)
+                .solver
+                .solve(ctx.robot, &pose, ctx.tcp, &guess, true)
                 .map_err(|e| located(e, &place()))?;
             geometric_into(ctx.robot, &q, ctx.tcp, &mut jac);
-            let j6: Matrix6<f64> = jac.fixed_columns::<6>(0).into_owned();
-            let lu = j6.lu();
+            let lu = square(&jac, free).lu();
             let singular = || {
                 Error::Unreachable(format!(
                     "{}: the Jacobian is singular at q = {q:.4?} rad",
@@ -603,12 +791,19 @@ impl<'a> Segment<'a> {
             };
             let finite = |v: &Vector6<f64>| v.iter().all(|x| x.is_finite());
             let twist = stack(&(self.delta * du), &(self.turn * du));
-            let dq: [f64; 6] = lu.solve(&twist).filter(finite).ok_or_else(singular)?.into();
+            let rates = lu.solve(&twist).filter(finite).ok_or_else(singular)?;
+            let mut dq = vec![0.0; n];
+            for (k, &j) in free.iter().enumerate() {
+                dq[j] = rates[k];
+            }
             let acc = stack(&(self.delta * ddu), &(self.turn * ddu))
                 - bias_acceleration(ctx.robot, &q, &dq, ctx.tcp);
-            let ddq: [f64; 6] = lu.solve(&acc).filter(finite).ok_or_else(singular)?.into();
-            let step = t - prev.t;
-            for j in 0..6 {
+            let accel = lu.solve(&acc).filter(finite).ok_or_else(singular)?;
+            let mut ddq = vec![0.0; n];
+            for (k, &j) in free.iter().enumerate() {
+                ddq[j] = accel[k];
+            }
+            for j in 0..n {
                 let jump = (q[j] - prev.q[j] - 0.5 * (dq[j] + prev.dq[j]) * step).abs();
                 if jump > JUMP_TOL {
                     return Err(Error::Unreachable(format!(
@@ -621,10 +816,15 @@ impl<'a> Segment<'a> {
                 }
             }
             prev = JointSample { t, q, dq, ddq };
-            out.push(prev);
+            out.push(prev.clone());
         }
         Ok(out)
     }
+}
+
+/// Number of samples of a segment of `duration` (s) at most `period` (s) apart.
+fn n_samples(duration: f64, period: f64) -> usize {
+    ((duration / period).ceil() as usize).max(1)
 }
 
 /// `[a; b]`.
@@ -671,9 +871,9 @@ impl Output {
         }
     }
 
-    fn push(&mut self, t: f64, q: &[f64; 6], dq: &[f64; 6], ddq: &[f64; 6]) {
+    fn push(&mut self, t: f64, q: &[f64], dq: &[f64], ddq: &[f64]) {
         self.t.push(t);
-        for j in 0..6 {
+        for j in 0..self.q.len() {
             self.q[j].push(q[j]);
             self.dq[j].push(dq[j]);
             self.ddq[j].push(ddq[j]);

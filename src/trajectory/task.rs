@@ -4,10 +4,11 @@
 //!
 //! # File format (TOML)
 //! `scenarios/pick_and_place.toml` documents every key with its unit. In short: `name`,
-//! `tool` (a built-in payload name or a `*.payload.toml` path relative to the scenario file),
-//! `seed_deg` (IK start configuration, deg), `path` (via point names in order), `[orientation]`
-//! (`x_base`, `z_base`: the TCP axes in the base frame, shared by all via points), `[points]`
-//! (name = TCP position in the base frame, m), `[[loads]]` (`name`, `pick_at`, `release_at`:
+//! `tool` (a built-in payload name, a `*.payload.toml` path relative to the scenario file, or
+//! `"none"` when the robot model already carries its end effector, e.g. the Panda's hand; then
+//! `tcp_m` gives the TCP in the flange frame, m), `seed_deg` (IK start configuration, deg),
+//! `path` (via point names in order), `[orientation]` (`x_base`, `z_base`: the TCP axes in
+//! the base frame, shared by all via points), `[points]` (name = TCP position in the base frame, m), `[[loads]]` (`name`, `pick_at`, `release_at`:
 //! 1-based steps of `path`; `mass_fraction` of the load level), `[motion]` (optional,
 //! [`LinearMoveOptions`] with `[motion.limits]` = [`MotionLimits`](super::linear_move::MotionLimits))
 //! and `[sweep]` (`speeds_m_s`, `loads_kg`). Unknown keys are errors.
@@ -31,6 +32,9 @@ use crate::model::payload::Payload;
 use crate::model::payload::PayloadEvent;
 
 use super::linear_move::{self, LinearMotion, LinearMoveOptions, ViaPose};
+
+/// The `tool` of a scenario whose robot model already carries its end effector.
+pub const NO_TOOL: &str = "none";
 
 /// Tolerance on the unit length and orthogonality of the orientation axes.
 const AXIS_TOL: f64 = 1e-6;
@@ -64,8 +68,9 @@ pub struct Load {
 pub struct Scenario {
     /// Display name.
     pub name: String,
-    /// The tool (flange frame); it defines the TCP.
-    pub tool: Payload,
+    /// The tool (flange frame), or `None` when the robot model already carries its end
+    /// effector (`tool = "none"`).
+    pub tool: Option<Payload>,
     /// Joint configuration the inverse kinematics starts from, rad.
     pub seed_rad: Vec<f64>,
     /// Timing options and motion bounds of the linear moves.
@@ -78,6 +83,8 @@ pub struct Scenario {
     points: BTreeMap<String, Vector3<f64>>,
     /// TCP orientation at every via point, base frame.
     orientation: UnitQuaternion<f64>,
+    /// TCP position in the flange frame, m (the tool's, or `tcp_m` without a tool).
+    tcp_m: Vector3<f64>,
     /// Loads, sorted by `pick_at`, not overlapping.
     loads: Vec<Load>,
 }
@@ -112,6 +119,7 @@ pub struct TaskRun {
 struct ScenarioFile {
     name: String,
     tool: String,
+    tcp_m: Option<[f64; 3]>,
     seed_deg: Vec<f64>,
     path: Vec<String>,
     orientation: OrientationFile,
@@ -178,11 +186,10 @@ impl Scenario {
         &self.loads
     }
 
-    /// TCP pose in the flange frame, m: the tool's TCP (the flange centre if the tool has
-    /// none), with the flange orientation.
+    /// TCP pose in the flange frame, m: the tool's TCP (or the scenario's `tcp_m` when the
+    /// robot carries its own end effector), with the flange orientation.
     pub fn tcp(&self) -> Isometry3<f64> {
-        let p = self.tool.tcp.unwrap_or_default();
-        Isometry3::from_parts(Translation3::from(p), UnitQuaternion::identity())
+        Isometry3::from_parts(Translation3::from(self.tcp_m), UnitQuaternion::identity())
     }
 
     /// Plan the task on `robot` (bare, without payload) at the commanded TCP speed
@@ -210,7 +217,7 @@ impl Scenario {
         let arrival = |step: usize| motion.arrivals_s[step - 1];
         let mut events = vec![PayloadEvent {
             t_s: 0.0,
-            payload: Some(self.tool.clone()),
+            payload: self.tool.clone(),
         }];
         if load_kg > 0.0 {
             for load in &self.loads {
@@ -222,11 +229,14 @@ impl Scenario {
                 )?;
                 events.push(PayloadEvent {
                     t_s: arrival(load.pick_at),
-                    payload: Some(self.tool.combined(&cube)),
+                    payload: Some(match &self.tool {
+                        Some(tool) => tool.combined(&cube),
+                        None => cube,
+                    }),
                 });
                 events.push(PayloadEvent {
                     t_s: arrival(load.release_at),
-                    payload: Some(self.tool.clone()),
+                    payload: self.tool.clone(),
                 });
             }
         }
@@ -256,17 +266,36 @@ fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
     let file: ScenarioFile =
         toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
 
-    let tool = if builtin::PAYLOAD_NAMES.contains(&file.tool.as_str()) {
-        builtin::payload(&file.tool)?
+    let (tool, tcp_m) = if file.tool == NO_TOOL {
+        let Some(tcp) = file.tcp_m else {
+            return Err(err(format!(
+                "tool = \"{NO_TOOL}\" needs tcp_m, the TCP in the flange frame (m)"
+            )));
+        };
+        if !tcp.iter().all(|v| v.is_finite()) {
+            return Err(err(format!("tcp_m = {tcp:?} must be finite")));
+        }
+        (None, Vector3::from(tcp))
     } else {
-        Payload::from_file(&dir.join(&file.tool))?
+        if file.tcp_m.is_some() {
+            return Err(err(format!(
+                "tcp_m applies only to tool = \"{NO_TOOL}\"; tool '{}' defines its own TCP",
+                file.tool
+            )));
+        }
+        let tool = if builtin::PAYLOAD_NAMES.contains(&file.tool.as_str()) {
+            builtin::payload(&file.tool)?
+        } else {
+            Payload::from_file(&dir.join(&file.tool))?
+        };
+        let Some(tcp) = tool.tcp else {
+            return Err(err(format!(
+                "tool '{}' defines no TCP (tcp_m); linear moves need one",
+                file.tool
+            )));
+        };
+        (Some(tool), tcp)
     };
-    if tool.tcp.is_none() {
-        return Err(err(format!(
-            "tool '{}' defines no TCP (tcp_m); linear moves need one",
-            file.tool
-        )));
-    }
 
     if let Some(i) = file.seed_deg.iter().position(|v| !v.is_finite()) {
         return Err(err(format!("seed_deg[{}] must be finite", i + 1)));
@@ -360,6 +389,7 @@ fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
         path: file.path,
         points,
         orientation,
+        tcp_m,
         loads,
     })
 }
