@@ -457,7 +457,10 @@ fn cli(arm: &Arm, tag: &str) {
     // In-sample (the first excitation was fitted on): a smoke check of the command, not of
     // accuracy; the library test above and the sweep below are held out.
     let e = v["error_vs_simulated_pct"].as_f64().unwrap();
-    assert!(e.is_finite() && v["interval_95_J"].as_f64().unwrap() > 0.0, "{tag}: {v}");
+    assert!(
+        e.is_finite() && v["interval_95_J"].as_f64().unwrap() > 0.0,
+        "{tag}: {v}"
+    );
     let mut a = with_drive(robot);
     a.extend([
         "--scenario".into(),

@@ -21,6 +21,7 @@ pub struct Figure {
 /// identification step and of one sweep cell. `efficiency`: the drives' nominal efficiency.
 pub fn figures(robot: &Robot, outcome: &Outcome, efficiency: f64) -> Result<Vec<Figure>> {
     let mut out = vec![
+        heldout(outcome),
         energy_vs_speed(outcome),
         error_per_cell(outcome),
         table3(outcome),
@@ -110,6 +111,55 @@ fn error_per_cell(outcome: &Outcome) -> Figure {
     }
 }
 
+/// Energy error of every held-out motion: from the log, from the plan, with the 95 %
+/// interval half-width (in % of the true energy) beside them.
+fn heldout(outcome: &Outcome) -> Figure {
+    let m = &outcome.heldout.motions;
+    let pct = |f: &dyn Fn(&crate::validation::heldout::MotionResult) -> f64| -> Vec<f64> {
+        m.iter().map(f).collect()
+    };
+    let chart = Chart::new(
+        "Held-out motions: energy error of the identified model",
+        "Motion (kind, payload kg)",
+        "Energy error (%)",
+    )
+    .with_x_axis(XAxis::Categories(
+        m.iter()
+            .map(|r| {
+                format!(
+                    "{} {} {:.1}",
+                    r.index,
+                    match r.kind.as_str() {
+                        "fourier" => "F",
+                        "point-to-point" => "P",
+                        _ => "L",
+                    },
+                    r.payload_kg
+                )
+            })
+            .collect(),
+    ))
+    .with_series(Series::bars(
+        "from the 10 Hz log",
+        &pct(&|r| r.from_log.energy_error_pct),
+    ))
+    .with_series(Series::bars(
+        "from the plan",
+        &pct(&|r| r.from_plan.energy_error_pct),
+    ))
+    .with_series(Series::bars(
+        "95 % interval (+/-)",
+        &pct(&|r| 100.0 * r.from_log.interval_j / r.true_j),
+    ));
+    Figure {
+        stem: "heldout_errors".into(),
+        caption: "Energy error on motions no identification saw (F Fourier, P point-to-point, \
+                  L linear; payload kg), with the 95 % interval half-width"
+            .into(),
+        chart,
+    }
+}
+
 fn table3(outcome: &Outcome) -> Figure {
     let rows = &outcome.steps.rows;
     let mut chart = Chart::new(
@@ -145,7 +195,7 @@ fn table3(outcome: &Outcome) -> Figure {
     }
     Figure {
         stem: "table3_errors".into(),
-        caption: "Energy error per identification step".into(),
+        caption: "Energy error per identification step (in-sample)".into(),
         chart,
     }
 }
