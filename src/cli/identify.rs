@@ -86,6 +86,14 @@ pub struct IdentifyArgs {
     /// Output model file (JSON: base parameters, losses, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
+    /// Also write the identified robot as URDF: physically consistent link inertials and
+    /// friction (needs --method pmsm or torque); what the data cannot reveal keeps the input
+    /// URDF's values.
+    #[arg(long, value_name = "OUT.urdf")]
+    export_urdf: Option<PathBuf>,
+    /// Also write the identified drives (rotor inertia, friction, copper loss, standby power).
+    #[arg(long, value_name = "OUT.drive.toml")]
+    export_drive: Option<PathBuf>,
 }
 
 /// Concatenate the states of several datasets.
@@ -219,6 +227,13 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     };
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
     let consistency = consistency(&robot, &model, 1.0, 200, 1)?;
+    super::export::export(
+        &robot,
+        &model,
+        estimates.last(),
+        args.export_urdf.as_deref(),
+        args.export_drive.as_deref(),
+    )?;
     let out = json!({
         "method": format!("{:?}", args.method),
         "model": model,
@@ -280,7 +295,10 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let model = read_model(&args.model, &robot)?;
     let ds = Dataset::read(&args.data)
         .with_context(|| format!("reading dataset {}", args.data.display()))?;
-    let p = prepare(&ds.log(&args.data.display().to_string())?, args.route.route())?;
+    let p = prepare(
+        &ds.log(&args.data.display().to_string())?,
+        args.route.route(),
+    )?;
     let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3)?;
     let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
         .iter()

@@ -22,6 +22,7 @@ mod base_params;
 mod dataset;
 mod dynamics;
 mod excite;
+mod export;
 mod identify;
 mod model;
 mod progress;
@@ -239,6 +240,7 @@ impl TwinArgs {
             power_averaging: self.power_averaging,
             noise,
             seed: self.noise_seed,
+            ..SensorSettings::default()
         };
         Ok(Setup {
             robot,
