@@ -57,7 +57,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            lambda: 1e-8,
+            lambda: 1e-12,
             max_iterations: 500,
         }
     }
@@ -75,10 +75,13 @@ pub struct Consistent {
     pub base_names: Vec<String>,
     /// `K phi`: the consistent base parameters (SI).
     pub theta: Vec<f64>,
-    /// Mahalanobis distance `sqrt((K phi - theta_hat)^T Info (K phi - theta_hat))` (in
+    /// The non-negative extra parameters (the estimate's values after the base parameters,
+    /// e.g. copper-loss coefficients and standby power), consistent with `theta`.
+    pub extras: Vec<f64>,
+    /// Mahalanobis distance of `(K phi, extras)` from the estimate (in
     /// standard deviations of the estimate).
     pub mahalanobis: f64,
-    /// `|K phi - theta_hat|_k / sigma_k` per base parameter.
+    /// `|K phi - theta_hat|_k / sigma_k` per estimated value (base parameters, then extras).
     pub change_sigma: Vec<f64>,
     /// Largest entry of `change_sigma`.
     pub max_change_sigma: f64,
@@ -303,10 +306,11 @@ pub fn base_map(base: &BaseParams) -> Result<DMatrix<f64>> {
 }
 
 /// Find physically consistent standard parameters for the base-parameter estimate
-/// `theta_hat` (SI, in `base`'s order) with covariance `covariance` (`rank x rank`, symmetric
-/// positive definite), closest to the data and, where the data are silent, to `prior` (a
-/// standard vector of `base.layout()`, e.g. [`ParamLayout::theta`] of the input URDF; drive
-/// terms may be zero). See the module docs.
+/// `theta_hat` (SI, in `base`'s order, optionally followed by extra estimated values that must
+/// be non-negative, e.g. copper-loss coefficients) with covariance `covariance` (symmetric
+/// positive definite, one row per value of `theta_hat`), closest to the data and, where the
+/// data are silent, to `prior` (a standard vector of `base.layout()`, e.g.
+/// [`ParamLayout::theta`] of the input URDF; drive terms may be zero). See the module docs.
 ///
 /// Errors ([`Error::InvalidInput`]): wrong lengths, non-finite values, a covariance that is
 /// not symmetric positive definite, a negative or non-finite `lambda`.
@@ -319,9 +323,10 @@ pub fn project(
 ) -> Result<Consistent> {
     let layout = *base.layout();
     let (nb, p) = (base.rank(), layout.len());
-    if theta_hat.len() != nb || covariance.shape() != (nb, nb) || prior.len() != p {
+    let nt = theta_hat.len();
+    if nt < nb || covariance.shape() != (nt, nt) || prior.len() != p {
         return Err(Error::InvalidInput(format!(
-            "consistent projection: {} base values and a {}x{} covariance for {nb} base parameters, {} prior values for {p} standard parameters",
+            "consistent projection: {} estimated values and a {}x{} covariance for {nb} base parameters (and non-negative extras), {} prior values for {p} standard parameters",
             theta_hat.len(),
             covariance.nrows(),
             covariance.ncols(),
@@ -354,16 +359,34 @@ pub fn project(
         ));
     }
     // R^T R = Info = Cov^-1 with R = diag(1/sqrt(e)) V^T.
-    let r_info = DMatrix::from_fn(nb, nb, |i, j| {
+    let r_info = DMatrix::from_fn(nt, nt, |i, j| {
         eig.eigenvectors[(j, i)] / eig.eigenvalues[i].sqrt()
     });
     let k = base_map(base)?;
-    let rk = &r_info * &k;
+    // Extras: the estimate's values after the base parameters, non-negative (x = z^2), mapped
+    // to themselves. q = p + ne unknowns in all.
+    let ne = nt - nb;
+    let q = p + ne;
+    let mut k_aug = DMatrix::zeros(nt, q);
+    k_aug.view_mut((0, 0), (nb, p)).copy_from(&k);
+    for e in 0..ne {
+        k_aug[(nb + e, p + e)] = 1.0;
+    }
+    let rk = &r_info * &k_aug;
     let rtheta = &r_info * DVector::from_column_slice(theta_hat);
-    let (s, lengths) = scales(&layout, prior);
+    let (mut s, lengths) = scales(&layout, prior);
+    let extras = &theta_hat[nb..];
+    let largest_extra = extras.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    s.extend(
+        extras
+            .iter()
+            .map(|v| v.abs().max(1e-3 * largest_extra).max(1e-300)),
+    );
+    let mut prior_aug = prior.to_vec();
+    prior_aug.extend(extras.iter().map(|v| v.max(0.0)));
     // Natural units of z for the damping and the step limit: log-Cholesky logs are
     // dimensionless, its off-diagonal entries are lengths (scale L), drive terms sqrt(scale).
-    let mut unit = vec![1.0; p];
+    let mut unit = vec![1.0; q];
     for (j, l) in lengths.iter().enumerate() {
         let start = layout.link_start(j);
         for u in &mut unit[start + 4..start + INERTIAL] {
@@ -373,7 +396,10 @@ pub fn project(
             unit[c] = 1.0 / s[c].sqrt();
         }
     }
-    let mut offset = vec![0.0; p];
+    for c in p..q {
+        unit[c] = 1.0 / s[c].sqrt();
+    }
+    let mut offset = vec![0.0; q];
     let margins: Vec<Matrix4<f64>> = (0..layout.dof)
         .map(|j| margin(&s, layout.link_start(j)))
         .collect();
@@ -382,36 +408,38 @@ pub fn project(
         offset[start..start + INERTIAL].copy_from_slice(&standard_of(e));
     }
     let sq = opts.lambda.sqrt();
-    let w = DVector::from_iterator(p, s.iter().map(|v| sq / v));
-    let prior_v = DVector::from_column_slice(prior);
+    let w = DVector::from_iterator(q, s.iter().map(|v| sq / v));
+    let prior_v = DVector::from_column_slice(&prior_aug);
     // Residual and its Jacobian in phi.
     let residual = |phi: &DVector<f64>| -> DVector<f64> {
-        let mut r = DVector::zeros(nb + p);
-        r.rows_mut(0, nb).copy_from(&(&rk * phi - &rtheta));
-        r.rows_mut(nb, p)
+        let mut r = DVector::zeros(nt + q);
+        r.rows_mut(0, nt).copy_from(&(&rk * phi - &rtheta));
+        r.rows_mut(nt, q)
             .copy_from(&(phi - &prior_v).component_mul(&w));
         r
     };
-    let mut j_phi = DMatrix::zeros(nb + p, p);
-    j_phi.rows_mut(0, nb).copy_from(&rk);
-    for c in 0..p {
-        j_phi[(nb + c, c)] = w[c];
+    let mut j_phi = DMatrix::zeros(nt + q, q);
+    j_phi.rows_mut(0, nt).copy_from(&rk);
+    for c in 0..q {
+        j_phi[(nt + c, c)] = w[c];
     }
 
     // Start: the unconstrained minimiser, made consistent link by link.
-    let mut rhs = DVector::zeros(nb + p);
-    rhs.rows_mut(0, nb).copy_from(&rtheta);
-    rhs.rows_mut(nb, p).copy_from(&prior_v.component_mul(&w));
+    let mut rhs = DVector::zeros(nt + q);
+    rhs.rows_mut(0, nt).copy_from(&rtheta);
+    rhs.rows_mut(nt, q).copy_from(&prior_v.component_mul(&w));
     let free = j_phi
         .clone()
         .svd(true, true)
         .solve(&rhs, 1e-15)
         .map_err(|e| Error::InvalidInput(format!("consistent projection: {e}")))?;
-    let mut z = vec![0.0; p];
-    for j in 0..layout.dof {
+    let mut z = vec![0.0; q];
+    for c in p..q {
+        z[c] = free[c].max(1e-3 * s[c]).sqrt();
+    }
+    for (j, e) in margins.iter().enumerate() {
         let start = layout.link_start(j);
-        let link =
-            |v: &[f64]| log_cholesky(&(pseudo_inertia(&v[start..start + INERTIAL]) - margins[j]));
+        let link = |v: &[f64]| log_cholesky(&(pseudo_inertia(&v[start..start + INERTIAL]) - e));
         let zl = link(free.as_slice())
             .or_else(|| link(prior))
             .unwrap_or_else(|| {
@@ -430,7 +458,12 @@ pub fn project(
 
     // Levenberg–Marquardt in z.
     let eval = |z: &[f64]| -> (DVector<f64>, DMatrix<f64>) {
-        let (phi, d) = phi_of(&layout, z, &offset);
+        let (mut phi, mut d) = phi_of(&layout, &z[..p], &offset[..p]);
+        phi.extend(z[p..].iter().map(|v| v * v));
+        d = d.resize(q, q, 0.0);
+        for c in p..q {
+            d[(c, c)] = 2.0 * z[c];
+        }
         (DVector::from_vec(phi), d)
     };
     let (mut phi, mut dphi) = eval(&z);
@@ -443,13 +476,13 @@ pub fn project(
         let jac = &j_phi * &dphi;
         let mut improved = false;
         for _ in 0..30 {
-            let mut a = DMatrix::zeros(nb + 2 * p, p);
-            a.rows_mut(0, nb + p).copy_from(&jac);
+            let mut a = DMatrix::zeros(nt + 2 * q, q);
+            a.rows_mut(0, nt + q).copy_from(&jac);
             for (c, u) in unit.iter().enumerate() {
-                a[(nb + p + c, c)] = mu.sqrt() * u;
+                a[(nt + q + c, c)] = mu.sqrt() * u;
             }
-            let mut b = DVector::zeros(nb + 2 * p);
-            b.rows_mut(0, nb + p).copy_from(&(-&r));
+            let mut b = DVector::zeros(nt + 2 * q);
+            b.rows_mut(0, nt + q).copy_from(&(-&r));
             let Ok(mut step) = a.svd(true, true).solve(&b, 0.0) else {
                 mu *= 10.0;
                 continue;
@@ -489,10 +522,10 @@ pub fn project(
         }
     }
 
-    let theta = &k * &phi;
-    let dtheta = &theta - DVector::from_column_slice(theta_hat);
+    let fitted = &k_aug * &phi;
+    let dtheta = &fitted - DVector::from_column_slice(theta_hat);
     let mahalanobis = (&r_info * &dtheta).norm();
-    let change_sigma: Vec<f64> = (0..nb)
+    let change_sigma: Vec<f64> = (0..nt)
         .map(|i| dtheta[i].abs() / covariance[(i, i)].sqrt())
         .collect();
     let max_change_sigma = change_sigma.iter().cloned().fold(0.0, f64::max);
@@ -517,9 +550,10 @@ pub fn project(
         .collect();
     Ok(Consistent {
         names,
-        phi: phi.as_slice().to_vec(),
+        phi: phi.as_slice()[..p].to_vec(),
         base_names: base.base_names(),
-        theta: theta.as_slice().to_vec(),
+        theta: fitted.as_slice()[..nb].to_vec(),
+        extras: phi.as_slice()[p..].to_vec(),
         mahalanobis,
         change_sigma,
         max_change_sigma,
@@ -545,10 +579,12 @@ pub struct IdentifiedTwin {
 }
 
 impl IdentifiedTwin {
-    /// Project `model` (SI, not efficiency-scaled) with the covariance of `estimate` (its
-    /// leading block over the base parameters, which must come first and carry the model's
-    /// names) onto consistent parameters (see [`project`]); `prior` is a standard vector of
-    /// the model's layout (e.g. the input URDF with [`crate::dynamics::DriveTerms::from_urdf`]).
+    /// Project the estimate behind `model` (SI, not efficiency-scaled) onto consistent
+    /// parameters (see [`project`]): its base parameters (which must come first and carry the
+    /// model's names) and its other values, the copper-loss coefficients `c<i>_W_per_Nm2` and
+    /// the constant power `P0_W` of a PMSM fit, kept non-negative, with the estimate's full
+    /// covariance. `prior` is a standard vector of the model's layout (e.g. the input URDF with
+    /// [`crate::dynamics::DriveTerms::from_urdf`]).
     ///
     /// Errors: an efficiency-scaled model (power cannot separate the parameters from 1/eta),
     /// an estimate that does not cover the model's base parameters, or what [`project`]
@@ -567,17 +603,32 @@ impl IdentifiedTwin {
             ));
         }
         let nb = model.theta.len();
-        let covers = estimate.names.len() >= nb
+        let nt = estimate.values.len();
+        let covers = nt >= nb
+            && estimate.names.len() == nt
             && estimate.names[..nb] == model.names[..]
-            && estimate.covariance.nrows() >= nb
-            && estimate.covariance.ncols() >= nb;
+            && estimate.covariance.shape() == (nt, nt);
         if !covers {
             return Err(Error::InvalidInput(
                 "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method pmsm or torque".into(),
             ));
         }
-        let cov = estimate.covariance.view((0, 0), (nb, nb)).into_owned();
-        let consistent = project(&base, &model.theta, &cov, prior, opts)?;
+        let consistent = project(&base, &estimate.values, &estimate.covariance, prior, opts)?;
+        // Copper and standby from the consistent extras where the estimate has them.
+        let mut copper = model.copper.clone();
+        let mut standby: f64 = model.constant.iter().sum();
+        for (name, v) in estimate.names[nb..].iter().zip(&consistent.extras) {
+            if name == "P0_W" {
+                standby = *v;
+            } else if let Some(i) = name
+                .strip_prefix('c')
+                .and_then(|r| r.strip_suffix("_W_per_Nm2"))
+                .and_then(|i| i.parse::<usize>().ok())
+                .filter(|i| (1..=copper.len()).contains(i))
+            {
+                copper[i - 1] = *v;
+            }
+        }
         let layout = model.layout;
         let identified = with_standard_params(robot, &layout, &consistent.phi)?;
         let mut clamped = Vec::new();
@@ -589,14 +640,13 @@ impl IdentifiedTwin {
                 v
             }
         };
-        let standby: f64 = model.constant.iter().sum();
         let joints = (0..robot.dof())
             .map(|j| JointDrive {
                 rotor_inertia: layout.armature_col(j).map_or(0.0, |c| consistent.phi[c]),
                 efficiency: 1.0,
                 copper_loss: non_negative(
                     format!("copper_loss_W_per_Nm2 of joint {}", j + 1),
-                    model.copper[j],
+                    copper[j],
                 ),
                 standby_power: if j == 0 {
                     non_negative("standby_W of the arm".into(), standby)
