@@ -138,3 +138,83 @@ fn exported_drive_file_reads_back() {
     let back = Drive::from_toml_str(&text, "exported", &robot).unwrap();
     assert_eq!(back, drive);
 }
+
+/// `identify --export-urdf --export-drive` writes files that load as a robot and its drives
+/// (physically consistent), and refuses a model scaled by 1/efficiency.
+#[test]
+fn identify_exports_the_identified_robot() {
+    use powertwin::dataset::Format;
+    use powertwin::dataset::meta::Urdf;
+    use powertwin::trajectory::random::{RandomFourierOptions, random_fourier};
+    use powertwin::twin::TwinConfig;
+    use powertwin::twin::sensor::SensorSettings;
+    use powertwin::validation::rig::Rig;
+    let robot = common::irb1200();
+    let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "drive", &robot).unwrap();
+    let rig = Rig {
+        robot: &robot,
+        urdf: Urdf::inline(builtin::IRB1200_URDF),
+        drive: &drive,
+        twin: TwinConfig::default(),
+        sensor: SensorSettings::default(),
+    };
+    let opts = RandomFourierOptions {
+        periods: 2.0,
+        ..RandomFourierOptions::default()
+    };
+    let mut args: Vec<String> = vec!["identify".into(), "--data".into()];
+    for seed in 300..303 {
+        let traj = random_fourier(&robot, &mut common::rng(seed), &opts).unwrap();
+        let dir = common::tmp(&format!("ds{seed}"));
+        rig.run(&traj, &[], seed, serde_json::json!({}))
+            .unwrap()
+            .write(&dir, Format::Parquet)
+            .unwrap();
+        args.push(dir.display().to_string());
+    }
+    let (urdf, drv, model) = (
+        common::tmp("out.urdf"),
+        common::tmp("out.drive.toml"),
+        common::tmp("model.json"),
+    );
+    args.extend(
+        [
+            "--base-freq",
+            "0.1",
+            "--min-speed",
+            "0.05",
+            "--out",
+            model.to_str().unwrap(),
+            "--export-urdf",
+            urdf.to_str().unwrap(),
+            "--export-drive",
+            drv.to_str().unwrap(),
+        ]
+        .map(String::from),
+    );
+    let argv = |method: &str| {
+        let mut a = args.clone();
+        a.extend(["--method".to_string(), method.to_string()]);
+        a
+    };
+    let pmsm = argv("pmsm");
+    let (code, _, err) = common::run(&pmsm.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("export: consistent parameters"), "{err}");
+    let b = load_file(&urdf, &LoadOptions::default()).unwrap();
+    let d = Drive::from_file(&drv, &b).unwrap();
+    assert!(
+        d.joints()
+            .iter()
+            .all(|j| j.copper_loss >= 0.0 && j.rotor_inertia >= 0.0)
+    );
+    let text = std::fs::read_to_string(&urdf).unwrap();
+    assert!(text.contains("Set by the prior") && text.contains("identified by powertwin"));
+    // A model scaled by 1/efficiency cannot be exported.
+    std::fs::remove_file(&urdf).unwrap();
+    let total = argv("total");
+    let (code, _, err) = common::run(&total.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_ne!(code, 0);
+    assert!(err.contains("--method pmsm or torque"), "{err}");
+    assert!(!urdf.exists());
+}

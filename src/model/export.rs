@@ -11,7 +11,7 @@
 
 use std::fmt::Write as _;
 
-use nalgebra::{Isometry3, Vector3};
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
@@ -73,10 +73,25 @@ fn comment(s: &str) -> String {
     s.replace("--", "- -")
 }
 
+/// URDF roll, pitch, yaw (rad) of a rotation, `R = Rz(yaw) Ry(pitch) Rx(roll)`, accurate to
+/// roundoff even at pitch = +-pi/2 (where the usual `asin` extraction loses half the digits):
+/// yaw from the first column, then roll from `Rz(-yaw) R`, which is `Ry(pitch) Rx(roll)`
+/// whatever the pitch.
+fn rpy(rotation: &UnitQuaternion<f64>) -> (f64, f64, f64) {
+    let r = rotation.to_rotation_matrix().into_inner();
+    let yaw = r[(1, 0)].atan2(r[(0, 0)]);
+    let pitch = (-r[(2, 0)]).atan2(r[(0, 0)].hypot(r[(1, 0)]));
+    let (sy, cy) = yaw.sin_cos();
+    // Row 1 of Rz(-yaw) R: [0, cos(roll), -sin(roll)].
+    let r11 = -sy * r[(0, 1)] + cy * r[(1, 1)];
+    let r12 = -sy * r[(0, 2)] + cy * r[(1, 2)];
+    ((-r12).atan2(r11), pitch, yaw)
+}
+
 /// `xyz="..." rpy="..."` of a pose (full precision: the numbers read back to the same bits).
 fn origin(pose: &Isometry3<f64>) -> String {
     let t = pose.translation.vector;
-    let (r, p, y) = pose.rotation.euler_angles();
+    let (r, p, y) = rpy(&pose.rotation);
     format!(
         "<origin xyz=\"{:?} {:?} {:?}\" rpy=\"{r:?} {p:?} {y:?}\"/>",
         t.x, t.y, t.z
