@@ -203,6 +203,7 @@ fn identify_exports_the_identified_robot() {
     assert!(err.contains("export: consistent parameters"), "{err}");
     let b = load_file(&urdf, &LoadOptions::default()).unwrap();
     let d = Drive::from_file(&drv, &b).unwrap();
+    check_with_external_loaders(&urdf, &b);
     assert!(
         d.joints()
             .iter()
@@ -217,4 +218,71 @@ fn identify_exports_the_identified_robot() {
     assert_ne!(code, 0);
     assert!(err.contains("--method pmsm or torque"), "{err}");
     assert!(!urdf.exists());
+}
+
+/// MuJoCo and Pinocchio (Python packages `mujoco`, `pin`) load the URDF at `path` with the
+/// joints and link masses of `robot`; MuJoCo's compiler also checks every inertia (positive,
+/// triangle inequality). A package (or `python3`) that is absent is skipped with a message.
+fn check_with_external_loaders(path: &std::path::Path, robot: &Robot) {
+    let masses: Vec<f64> = robot.links().iter().map(|l| l.inertia.mass).collect();
+    let scripts = [
+        (
+            "mujoco",
+            "import sys, mujoco\n\
+             m = mujoco.MjModel.from_xml_path(sys.argv[1])\n\
+             print(m.nv, *[m.body(m.jnt_bodyid[j]).mass[0] for j in range(m.njnt)])",
+        ),
+        (
+            "pinocchio",
+            "import sys, pinocchio\n\
+             m = pinocchio.buildModelFromUrdf(sys.argv[1])\n\
+             print(m.nv, *[m.inertias[j].mass for j in range(1, m.njoints)])",
+        ),
+    ];
+    for (package, script) in scripts {
+        let out = std::process::Command::new("python3")
+            .args(["-c", script, path.to_str().unwrap()])
+            .output();
+        let out = match out {
+            Ok(o) if o.status.success() => o,
+            Ok(o) if String::from_utf8_lossy(&o.stderr).contains("No module named") => {
+                println!("{package} is not installed: skipped");
+                continue;
+            }
+            Ok(o) => panic!("{package}: {}", String::from_utf8_lossy(&o.stderr)),
+            Err(e) => {
+                println!("python3 is not available ({e}): {package} skipped");
+                continue;
+            }
+        };
+        let v: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+            .split_whitespace()
+            .map(|s| s.parse().unwrap())
+            .collect();
+        assert_eq!(v.len(), robot.dof() + 1, "{package}: {v:?}");
+        assert_eq!(v[0], robot.dof() as f64, "{package}: {v:?}");
+        for (a, b) in v[1..].iter().zip(&masses) {
+            assert!(
+                (a - b).abs() < 1e-9 * b,
+                "{package}: masses {v:?} vs {masses:?}"
+            );
+        }
+        println!(
+            "{package} loads {}: link masses {:?}",
+            path.display(),
+            &v[1..]
+        );
+    }
+}
+
+#[test]
+fn mujoco_and_pinocchio_load_the_exported_urdf() {
+    let robot = common::irb1200();
+    let path = common::tmp("irb1200_export.urdf");
+    std::fs::write(
+        &path,
+        urdf_string(&robot, "export for MuJoCo/Pinocchio", &[]),
+    )
+    .unwrap();
+    check_with_external_loaders(&path, &robot);
 }
