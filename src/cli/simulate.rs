@@ -8,8 +8,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 use powertwin::dataset::generate::{RunSpec, simulate};
 use powertwin::io::table::Table;
-use powertwin::model::payload::PayloadEvent;
 use powertwin::trajectory::sampled::Sampled;
+use powertwin::model::payload::PayloadEvent;
 use serde_json::json;
 
 use super::TwinArgs;

@@ -27,13 +27,13 @@ use crate::dataset::meta::Urdf;
 use crate::error::{Error, Result};
 use crate::model::drive::{Drive, JointDrive};
 use crate::model::payload::Payload;
-use crate::model::payload::PayloadEvent;
 use crate::model::{RigidInertia, Robot};
 use crate::trajectory::Trajectory;
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
 use crate::twin::sensor::SensorSettings;
+use crate::model::payload::PayloadEvent;
 use crate::twin::{RunReport, TwinConfig};
 
 /// Which items of the global set a process produces: those with `index % count == shard`.

@@ -156,9 +156,7 @@ impl Log {
             .windows(2)
             .any(|w| !(w[1].t_s >= w[0].t_s) || !w[0].t_s.is_finite())
         {
-            return Err(bad(
-                "payload events must be finite and sorted by time".into()
-            ));
+            return Err(bad("payload events must be finite and sorted by time".into()));
         }
         Ok(())
     }

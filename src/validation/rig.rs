@@ -6,10 +6,10 @@ use crate::dataset::meta::Urdf;
 use crate::error::Result;
 use crate::model::Robot;
 use crate::model::drive::Drive;
-use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
-use crate::twin::TwinConfig;
 use crate::twin::sensor::SensorSettings;
+use crate::model::payload::PayloadEvent;
+use crate::twin::TwinConfig;
 
 /// Robot, true drives, twin and logger settings of an experiment.
 #[derive(Debug, Clone)]
