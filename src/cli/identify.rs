@@ -122,6 +122,14 @@ pub struct IdentifyArgs {
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
+    /// Also write the identified robot as URDF: physically consistent link inertials and
+    /// friction (needs --method pmsm or torque); what the data cannot reveal keeps the input
+    /// URDF's values.
+    #[arg(long, value_name = "OUT.urdf")]
+    export_urdf: Option<PathBuf>,
+    /// Also write the identified drives (rotor inertia, friction, copper loss, standby power).
+    #[arg(long, value_name = "OUT.drive.toml")]
+    export_drive: Option<PathBuf>,
 }
 
 /// Read the datasets' logs for `robot`, with the payload timeline of `payloads` when given.
@@ -271,6 +279,13 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     };
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
     let consistency = consistency(&robot, &model, 1.0, 200, 1)?;
+    super::export::export(
+        &robot,
+        &model,
+        estimates.last(),
+        args.export_urdf.as_deref(),
+        args.export_drive.as_deref(),
+    )?;
     let out = json!({
         "method": format!("{:?}", args.method).to_lowercase(),
         "model": model,

@@ -22,6 +22,7 @@ mod base_params;
 mod dataset;
 mod dynamics;
 mod excite;
+mod export;
 mod identify;
 mod model;
 mod progress;
@@ -286,6 +287,7 @@ impl TwinArgs {
             power_signal: self.truth.power_signal(),
             noise,
             seed: self.noise_seed,
+            ..SensorSettings::default()
         };
         Ok(Setup {
             robot,

@@ -30,6 +30,9 @@ pub struct Estimate {
     pub residual_rms: f64,
     /// Number of observations.
     pub rows: usize,
+    /// Covariance `s^2 (A^T A)^-1` of the values, in their units squared (not serialised).
+    #[serde(skip)]
+    pub covariance: DMatrix<f64>,
 }
 
 /// Solve `a x = y` in the least-squares sense. `names` label the columns.
@@ -105,6 +108,10 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
             (s2 * var).sqrt() / norms[c]
         })
         .collect();
+    let inv_s = DMatrix::from_fn(p, p, |k, c| v_t[(k, c)] / svd.singular_values[k]);
+    let covariance = DMatrix::from_fn(p, p, |a, b| {
+        s2 * inv_s.column(a).dot(&inv_s.column(b)) / (norms[a] * norms[b])
+    });
     let rel_std = values
         .iter()
         .zip(&std)
@@ -124,5 +131,6 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
         cond,
         residual_rms: (resid.norm_squared() / m as f64).sqrt(),
         rows: m,
+        covariance,
     })
 }

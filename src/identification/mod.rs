@@ -1,6 +1,7 @@
 //! Parameter identification from motor power (Liu et al. 2018, eqs. 9–13), and the signal
 //! processing that turns a logged stream into regressor inputs.
 
+pub mod consistent;
 pub mod data;
 pub mod energy;
 pub mod fit;

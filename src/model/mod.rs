@@ -15,6 +15,7 @@
 
 pub mod builtin;
 pub mod drive;
+pub mod export;
 pub mod frames;
 pub mod inertia;
 pub mod payload;
