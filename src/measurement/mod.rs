@@ -151,12 +151,12 @@ impl Log {
                 return Err(bad(format!("{name} has {c} joints, q_rad {}", self.dof())));
             }
         }
-        if self
-            .payloads
-            .windows(2)
-            .any(|w| !(w[1].t_s >= w[0].t_s) || !w[0].t_s.is_finite())
-        {
-            return Err(bad("payload events must be finite and sorted by time".into()));
+        if self.payloads.windows(2).any(|w| {
+            w[1].t_s.partial_cmp(&w[0].t_s).is_none_or(|o| o.is_lt()) || !w[0].t_s.is_finite()
+        }) {
+            return Err(bad(
+                "payload events must be finite and sorted by time".into()
+            ));
         }
         Ok(())
     }
