@@ -17,9 +17,11 @@ use powertwin::identification::pmsm;
 use powertwin::identification::states::States;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
+use powertwin::measurement::Log;
 use powertwin::validation::params::consistency;
 use serde_json::json;
 
+use super::log::{LogArgs, load_logs};
 use super::{RobotArgs, read_model};
 
 /// Identification method.
@@ -72,8 +74,10 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     robot: RobotArgs,
     /// Dataset directories (for paper-steps: one per step, joint 6 first).
-    #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
+    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log", conflicts_with = "log")]
     data: Vec<PathBuf>,
+    #[command(flatten)]
+    logs: LogArgs,
     /// Identification method.
     #[arg(long, value_enum, default_value = "total")]
     method: Method,
@@ -108,6 +112,22 @@ fn concat(prepared: &[Prepared]) -> States {
     s
 }
 
+/// Check that measured logs have the robot's joint count (a log names no robot).
+fn robot_logs(logs: Vec<Log>, robot: &powertwin::Robot) -> Result<Vec<Log>> {
+    for l in &logs {
+        if l.dof() != robot.dof() {
+            bail!(
+                "{} has {} joint position columns, robot '{}' has {} joints",
+                l.source,
+                l.dof(),
+                robot.name(),
+                robot.dof()
+            );
+        }
+    }
+    Ok(logs)
+}
+
 /// Run `identify`.
 pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
@@ -126,23 +146,33 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         }
         datasets.push(ds);
     }
+    let logs: Vec<Log> = if args.logs.log.is_empty() {
+        datasets
+            .iter()
+            .zip(&args.data)
+            .map(|(ds, d)| ds.log(&d.display().to_string()))
+            .collect::<powertwin::Result<_>>()?
+    } else {
+        if args.method == Method::Torque {
+            bail!("--method torque needs the twin's joint torques: use --data, not --log");
+        }
+        robot_logs(load_logs(&args.logs)?, &robot)?
+    };
     if args.min_speed > 0.0 && args.method == Method::Energy {
         bail!(
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    let prepared: Vec<Prepared> = datasets
+    let prepared: Vec<Prepared> = logs
         .iter()
-        .zip(&args.data)
-        .map(|(ds, d)| {
-            let mut p = prepare(&ds.log(&d.display().to_string())?, args.route.route())
-                .with_context(|| format!("preparing {}", d.display()))?;
+        .map(|log| {
+            let mut p = prepare(log, args.route.route())
+                .with_context(|| format!("preparing {}", log.source))?;
             if args.min_speed > 0.0 {
                 let dropped = p.drop_slow_samples(args.min_speed)?;
                 eprintln!(
                     "{}: {dropped} samples with an excited joint below {} rad/s dropped",
-                    d.display(),
-                    args.min_speed
+                    log.source, args.min_speed
                 );
             }
             Ok(p)
@@ -265,8 +295,15 @@ pub struct PredictArgs {
     #[arg(long, value_name = "MODEL.json")]
     model: PathBuf,
     /// Dataset to predict.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
+    #[arg(
+        long,
+        value_name = "DIR",
+        required_unless_present = "log",
+        conflicts_with = "log"
+    )]
+    data: Option<PathBuf>,
+    #[command(flatten)]
+    logs: LogArgs,
     #[command(flatten)]
     route: RouteArgs,
     /// Machine-readable JSON instead of text.
@@ -274,30 +311,65 @@ pub struct PredictArgs {
     json: bool,
 }
 
-/// Run `predict`.
-pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
-    let robot = args.robot.load()?;
-    let model = read_model(&args.model, &robot)?;
-    let ds = Dataset::read(&args.data)
-        .with_context(|| format!("reading dataset {}", args.data.display()))?;
-    let p = prepare(&ds.log(&args.data.display().to_string())?, args.route.route())?;
-    let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3)?;
+/// Predicted energy (J), measured energy (J, trapezoid of the logged power) and power RMSE
+/// (W) of a prepared log.
+fn score(
+    robot: &powertwin::Robot,
+    model: &powertwin::identification::model::PowerModel,
+    p: &Prepared,
+) -> Result<(f64, f64, f64)> {
+    let predicted = model.energy(robot, p.motion.as_ref(), 1e-3)?;
     let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
         .iter()
         .sum();
-    let simulated = ds.meta.summary.energy_total_j;
-    let mut ws = powertwin::dynamics::Workspace::new(&robot);
+    let mut ws = powertwin::dynamics::Workspace::new(robot);
     let mut w = nalgebra::DMatrix::zeros(robot.dof(), model.layout.len());
     let n = robot.dof();
     let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut se = 0.0;
     for m in 0..p.states.len() {
         p.states.at(m, &mut q, &mut dq, &mut ddq);
-        let pp = model.power(&robot, &mut ws, &mut w, &q, &dq, &ddq);
+        let pp = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
         se += (pp - p.p_total[m]).powi(2);
     }
-    let rmse = (se / p.states.len() as f64).sqrt();
+    Ok((predicted, measured, (se / p.states.len() as f64).sqrt()))
+}
+
+/// Run `predict`.
+pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
+    let robot = args.robot.load()?;
+    let model = read_model(&args.model, &robot)?;
     let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
+    let Some(data) = &args.data else {
+        let mut rows = Vec::new();
+        let mut text = String::new();
+        for log in robot_logs(load_logs(&args.logs)?, &robot)? {
+            let p = prepare(&log, args.route.route())
+                .with_context(|| format!("preparing {}", log.source))?;
+            let (predicted, measured, rmse) = score(&robot, &model, &p)?;
+            rows.push(json!({
+                "log": log.source, "start_s": log.t_s[0], "end_s": log.t_s[log.len() - 1],
+                "predicted_J": predicted, "measured_J": measured,
+                "error_vs_measured_pct": pct(predicted, measured), "power_rmse_W": rmse,
+            }));
+            outln!(
+                text,
+                "{}: predicted {predicted:.2} J, measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W",
+                log.source,
+                pct(predicted, measured)
+            );
+        }
+        super::emit(&if args.json {
+            format!("{}\n", serde_json::to_string_pretty(&rows)?)
+        } else {
+            text
+        })?;
+        return Ok(ExitCode::SUCCESS);
+    };
+    let ds = Dataset::read(data).with_context(|| format!("reading dataset {}", data.display()))?;
+    let p = prepare(&ds.log(&data.display().to_string())?, args.route.route())?;
+    let (predicted, measured, rmse) = score(&robot, &model, &p)?;
+    let simulated = ds.meta.summary.energy_total_j;
     if args.json {
         super::emit(&format!(
             "{}\n",

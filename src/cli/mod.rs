@@ -23,6 +23,7 @@ mod dataset;
 mod dynamics;
 mod excite;
 mod identify;
+mod log;
 mod model;
 mod progress;
 mod reproduce;
