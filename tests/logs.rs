@@ -722,3 +722,68 @@ fn identify_on_half_the_moves_predict_the_rest() {
     assert!((standby - 37.0).abs() < 0.5, "standby {standby} W");
     assert!(worst < 2.0, "worst held-out energy error {worst} %");
 }
+
+#[test]
+fn identify_and_predict_take_logs_on_the_command_line() {
+    let (ds, _) = twin_run();
+    let log = write_rtde("rtde_cli.csv", 0.0);
+    let model = common::tmp("cli_model.json");
+    let (code, _, err) = common::run(&[
+        "identify",
+        "--log",
+        log.to_str().unwrap(),
+        "--columns",
+        "ur-rtde",
+        "--segments",
+        "0-20",
+        "--method",
+        "pmsm",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("1019 rows") && err.contains("power lag behind joints"),
+        "{err}"
+    );
+    assert!(
+        err.contains("segment 1:") && err.contains("500 observations"),
+        "{err}"
+    );
+    let (code, out, err) = common::run(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+        "--columns",
+        "ur-rtde",
+        "--segments",
+        "20-30,30-40",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    // The measured energy of the two segments is the trapezoid of the logged bus power
+    // from 20 to 40 s (one 40 ms window at 30 s and the time-stamp jitter aside).
+    let m = &ds.measured;
+    let (a, b) = (
+        m.t.partition_point(|&t| t < 20.0),
+        m.t.partition_point(|&t| t <= 40.0),
+    );
+    let twin: f64 = window_energies(&m.t[a..b], &m.p_total[a..b], false)
+        .iter()
+        .sum();
+    let measured: f64 = rows.iter().map(|r| r["measured_J"].as_f64().unwrap()).sum();
+    assert!(
+        (measured - twin).abs() < 0.01 * twin,
+        "{measured} J from the CLI, {twin} J from the twin"
+    );
+    // --data and --log exclude each other; one of them is required.
+    let (code, _, err) = common::run(&["identify", "--data", "x", "--log", "y", "--out", "m"]);
+    assert!(code != 0 && err.contains("cannot be used with"), "{err}");
+    let (code, _, err) = common::run(&["predict", "--model", "m"]);
+    assert!(code != 0 && err.contains("--data"), "{err}");
+}
