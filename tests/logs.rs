@@ -18,7 +18,9 @@ use powertwin::identification::states::States;
 use powertwin::measurement::columns::{ColumnMap, PowerKind};
 use powertwin::measurement::lag::estimate_lag;
 use powertwin::measurement::read::{LagOption, ReadOptions, ReadReport, parse_iso8601, read_log};
-use powertwin::measurement::segments::{MoveOptions, SegmentSpec, auto_moves, select, slice_time};
+use powertwin::measurement::segments::{
+    MoveOptions, SegmentSpec, auto_moves, rests, select, slice_time,
+};
 use powertwin::measurement::{Log, PowerSignal};
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
@@ -497,7 +499,7 @@ fn segment_ranges_parse_and_slice() {
 // Logs written by the twin.
 
 /// Via points (the moves are the legs between them) and the dwell at each, s.
-const POINTS: usize = 13;
+const POINTS: usize = 41;
 const DWELL_S: f64 = 1.0;
 /// The arm's DC bus, V.
 const BUS_V: f64 = 48.0;
@@ -682,10 +684,10 @@ fn concat(parts: &[States]) -> States {
 }
 
 #[test]
-#[ignore = "bus power (no regeneration) is not modelled by pmsm::identify yet (issue 10/11, lead): see the figures this test prints"]
+#[ignore = "misses the targets (measured: worst held-out move 9.3 %, sum of identified constants 198 W for the twin's 37 W, rest power 163 W off at dq = 0): pmsm::identify neither models bus power that cannot go negative nor keeps the fit physical (issue 10/11, lead)"]
 fn identify_on_half_the_moves_predict_the_rest() {
     let robot = common::irb1200();
-    let (logs, _) = rtde(&write_rtde("rtde_id.csv", 0.0), LagOption::Auto);
+    let (logs, _) = rtde(&write_rtde("rtde_id.csv", 0.0), LagOption::Report);
     let moves = select(&logs, &SegmentSpec::Auto, &MoveOptions::default()).unwrap();
     let route = Route::Smoothing {
         window: 9,
@@ -719,7 +721,22 @@ fn identify_on_half_the_moves_predict_the_rest() {
         worst = worst.max(err.abs());
     }
     eprintln!("worst held-out move: {worst:.2} %");
+    // Standby as a user sees it: the power at each rest of the log (>= 0.5 s), measured
+    // (mean) against predicted at the rest pose.
+    let mut ws = powertwin::dynamics::Workspace::new(&robot);
+    let mut w = nalgebra::DMatrix::zeros(robot.dof(), model.layout.len());
+    let zero = vec![0.0; robot.dof()];
+    let mut rest_worst: f64 = 0.0;
+    for r in rests(&logs[0], 0.02, 0.5) {
+        let l = &logs[0];
+        let mean = |v: &[f64]| v[r.clone()].iter().sum::<f64>() / r.len() as f64;
+        let q: Vec<f64> = l.q_rad.iter().map(|q| mean(q)).collect();
+        let predicted = model.power(&robot, &mut ws, &mut w, &q, &zero, &zero);
+        rest_worst = rest_worst.max((predicted - mean(&l.power_w)).abs());
+    }
+    eprintln!("worst rest power error: {rest_worst:.2} W");
     assert!((standby - 37.0).abs() < 0.5, "standby {standby} W");
+    assert!(rest_worst < 0.5, "rest power off by {rest_worst} W");
     assert!(worst < 2.0, "worst held-out energy error {worst} %");
 }
 
@@ -742,12 +759,13 @@ fn identify_and_predict_take_logs_on_the_command_line() {
         model.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{err}");
+    let rows = format!("{} rows", ds.measured.t.len());
     assert!(
-        err.contains("1019 rows") && err.contains("power lag behind joints"),
+        err.contains(&rows) && err.contains("power lag behind joints"),
         "{err}"
     );
     assert!(
-        err.contains("segment 1:") && err.contains("500 observations"),
+        err.contains("segment 1:") && err.contains("observations ->"),
         "{err}"
     );
     let (code, out, err) = common::run(&[

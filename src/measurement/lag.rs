@@ -10,7 +10,8 @@
 //! `dq_i ddq_i` (inertia), `dq_i` and `|dq_i|` (friction), `dq_i cos q_j` and `dq_i sin q_j`
 //! for every joint `j` (gravity). For each candidate lag on a grid of a quarter of the median
 //! sample period within `+-max_lag_s`, the power shifted by that lag is regressed on these
-//! terms (least squares, one QR factorisation for all lags); the lag explaining the most
+//! terms (least squares, one QR factorisation for all lags; at most 8000 samples, a longer
+//! log thinned evenly); the lag explaining the most
 //! variance wins, refined by a parabola through it and its neighbours. Velocities and
 //! accelerations are central differences of the (logged or differentiated) positions on the
 //! actual, possibly non-uniform, time stamps.
@@ -24,6 +25,9 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::measurement::clean::median_period;
+
+/// Most samples the regression uses (a longer log is thinned evenly).
+const MAX_ROWS: usize = 8000;
 
 /// What [`estimate_lag`] found.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -88,9 +92,13 @@ pub fn estimate_lag(
     let step = period / 4.0;
     let steps = (max_lag_s / step).floor() as i64;
     let reach = steps as f64 * step;
-    let inner: Vec<usize> = (0..m)
+    let inside: Vec<usize> = (0..m)
         .filter(|&k| t_s[k] - reach >= t_s[0] && t_s[k] + reach <= t_s[m - 1])
         .collect();
+    // Long logs: every `stride`-th sample (the shifted power is still interpolated from all
+    // samples, so the lag resolution is kept) bounds the cost.
+    let stride = inside.len().div_ceil(MAX_ROWS).max(1);
+    let inner: Vec<usize> = inside.into_iter().step_by(stride).collect();
     let n = q_rad.len();
     let features = 1 + 6 * n + n * (3 + 2 * n);
     if inner.len() < 50.max(2 * features) {
