@@ -8,11 +8,12 @@
 //! `cos` and `cos 2x` of each `q_j` and of each adjacent sum `q_j + q_j+1` (the holding
 //! torque's copper loss changes from one rest pose to the next); and per joint `i`,
 //! `dq_i ddq_i` (inertia), `dq_i` and `|dq_i|` (friction), `dq_i cos q_j` and `dq_i sin q_j`
-//! for every joint `j` (gravity). For each candidate lag on a grid of a quarter of the median
-//! sample period within `+-max_lag_s`, the power shifted by that lag is regressed on these
-//! terms (least squares, one QR factorisation for all lags; at most 8000 samples, a longer
-//! log thinned evenly); the lag explaining the most
-//! variance wins, refined by a parabola through it and its neighbours. Velocities and
+//! for every joint `j` (gravity). For each shift of the power by a whole number of samples
+//! within `+-max_lag_s`, the shifted power is regressed on these terms (least squares, one QR
+//! factorisation for all shifts; at most 8000 samples, a longer log thinned evenly); the
+//! shift explaining the most variance wins, refined by a parabola through it and its
+//! neighbours, times the median sample period. (Shifting by fractions of a sample would
+//! interpolate the power, average its noise and favour half-sample lags.) Velocities and
 //! accelerations are central differences of the (logged or differentiated) positions on the
 //! actual, possibly non-uniform, time stamps.
 //!
@@ -89,14 +90,12 @@ pub fn estimate_lag(
             "too few samples to estimate the power lag".into(),
         ));
     }
-    let step = period / 4.0;
-    let steps = (max_lag_s / step).floor() as i64;
-    let reach = steps as f64 * step;
-    let inside: Vec<usize> = (0..m)
-        .filter(|&k| t_s[k] - reach >= t_s[0] && t_s[k] + reach <= t_s[m - 1])
-        .collect();
-    // Long logs: every `stride`-th sample (the shifted power is still interpolated from all
-    // samples, so the lag resolution is kept) bounds the cost.
+    // Whole-sample shifts: interpolating the power between samples would average its noise
+    // and favour half-sample lags.
+    let steps = (max_lag_s / period).floor() as usize;
+    let inside: Vec<usize> = (steps..m.saturating_sub(steps)).collect();
+    // Long logs: every `stride`-th sample (shifts still move by single samples, so the lag
+    // resolution is kept) bounds the cost.
     let stride = inside.len().div_ceil(MAX_ROWS).max(1);
     let inner: Vec<usize> = inside.into_iter().step_by(stride).collect();
     let n = q_rad.len();
@@ -155,17 +154,12 @@ pub fn estimate_lag(
         xs.set_column(j, &(col / norm));
     }
     let q = xs.qr().q();
-    let shifted = |y: &[f64], lag: f64| -> DVector<f64> {
-        DVector::from_iterator(
+    // Fraction of the variance of the power shifted by `shift` samples the terms explain.
+    let r2 = |shift: i64| -> f64 {
+        let y = DVector::from_iterator(
             rows,
-            inner
-                .iter()
-                .map(|&k| interp(t_s, y, t_s[k] + lag).unwrap_or(y[k])),
-        )
-    };
-    // Fraction of the shifted power's variance the terms explain.
-    let r2 = |lag: f64| -> f64 {
-        let y = shifted(power_w, lag);
+            inner.iter().map(|&k| power_w[(k as i64 + shift) as usize]),
+        );
         let mean = y.mean();
         let total = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
         let residual = (y.norm_squared() - (q.transpose() * &y).norm_squared()).max(0.0);
@@ -175,24 +169,23 @@ pub fn estimate_lag(
             0.0
         }
     };
-    let grid: Vec<(f64, f64)> = (-steps..=steps)
-        .map(|s| (s as f64 * step, r2(s as f64 * step)))
-        .collect();
+    let s = steps as i64;
+    let grid: Vec<(i64, f64)> = (-s..=s).map(|j| (j, r2(j))).collect();
     let best = (0..grid.len())
         .max_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))
         .unwrap_or(0);
-    let mut lag = grid[best].0;
+    let mut lag = grid[best].0 as f64;
     if best > 0 && best + 1 < grid.len() {
         let (a, b, c) = (grid[best - 1].1, grid[best].1, grid[best + 1].1);
         let denom = a - 2.0 * b + c;
         if denom < 0.0 {
-            lag += 0.5 * step * (a - c) / denom;
+            lag += 0.5 * (a - c) / denom;
         }
     }
     Ok(LagEstimate {
-        lag_s: lag,
-        r2: r2(lag),
-        r2_at_zero: r2(0.0),
+        lag_s: lag * period,
+        r2: grid[best].1,
+        r2_at_zero: r2(0),
     })
 }
 
