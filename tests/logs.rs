@@ -172,6 +172,10 @@ drop_missing = true
     let (logs, rep) = read(&p, Some(&m));
     assert_eq!(rep.missing_rows_dropped, 2);
     assert_eq!(logs[0].len(), 28);
+    // A short row: the absent cells are missing too; a trailing delimiter is ignored.
+    let short = "t_s,q1_rad,q2_rad,P_total_W\n0,1,2,3,\n0.1,1\n";
+    let e = read_err(&write("short.csv", short), None);
+    assert!(e.contains("row 3") && e.contains("column 'q2_rad'"), "{e}");
     // Text that is not a number is always an error.
     lines[3] = "0.2,0.19866933079506122,abc,101.98669330795061".into();
     let e = read_err(&write("text.csv", &(lines.join("\n") + "\n")), Some(&m));

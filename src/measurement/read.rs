@@ -9,9 +9,10 @@
 //! - **Columns and units** come from a [`ColumnMap`] (or powertwin's own names without one)
 //!   and are converted to SI. Times become seconds from the first sample; the first time
 //!   stamp itself (s, e.g. Unix time) is reported.
-//! - **Missing cells** (empty, `NaN`, `NA`, `null`): an error naming the file, row and
-//!   column, unless the map sets `[clean] drop_missing = true`, then the row is dropped and
-//!   counted. Any other text is always an error naming the row and column.
+//! - **Missing cells** (empty, `NaN`, `NA`, `null`, or absent from a short CSV row): an error
+//!   naming the file, row and column, unless the map sets `[clean] drop_missing = true`, then
+//!   the row is dropped and counted. Any other text is always an error naming the row and
+//!   column. Extra fields at the end of a CSV row (a trailing delimiter) are ignored.
 //! - Rows are named as a spreadsheet shows them for CSV (`row 2` is the first data row,
 //!   the header being row 1) and as `data row N` (1-based) for Parquet.
 //! - The time base is then repaired ([`crate::measurement::clean`]), the power-vs-joint lag
@@ -208,7 +209,7 @@ fn csv_reader(path: &Path, delim: u8) -> Result<csv::Reader<File>> {
     Ok(csv::ReaderBuilder::new()
         .delimiter(delim)
         .trim(csv::Trim::All)
-        .flexible(false)
+        .flexible(true)
         .from_reader(file))
 }
 
