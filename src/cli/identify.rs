@@ -24,6 +24,7 @@ use powertwin::validation::heldout::LOG_ROUTE;
 use powertwin::validation::params::consistency;
 use serde_json::json;
 
+use super::log::{LogArgs, load_logs};
 use super::{RobotArgs, read_model};
 
 /// Identification method.
@@ -105,8 +106,10 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     robot: RobotArgs,
     /// Dataset directories (for paper-steps: one per step, joint 6 first).
-    #[arg(long, value_name = "DIR", num_args = 1.., required = true)]
+    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log", conflicts_with = "log")]
     data: Vec<PathBuf>,
+    #[command(flatten)]
+    logs: LogArgs,
     /// Identification method.
     #[arg(long, value_enum, default_value = "auto")]
     method: Method,
@@ -158,10 +161,41 @@ fn read_logs(data: &[PathBuf], robot: &Robot, payloads: &PayloadArgs) -> Result<
         .collect()
 }
 
+/// The logs of `--data` datasets or `--log` files, for `robot`, with the payload timeline of
+/// `payloads` when given.
+fn gather(
+    data: &[PathBuf],
+    log_args: &LogArgs,
+    robot: &Robot,
+    payloads: &PayloadArgs,
+) -> Result<Vec<Log>> {
+    if data.is_empty() {
+        let mut logs = load_logs(log_args)?;
+        let events = payloads.events()?;
+        for log in &mut logs {
+            if log.dof() != robot.dof() {
+                bail!(
+                    "{}: {} joint columns, robot '{}' has {} joints",
+                    log.source,
+                    log.dof(),
+                    robot.name(),
+                    robot.dof()
+                );
+            }
+            if let Some(e) = &events {
+                log.payloads = e.clone();
+            }
+        }
+        Ok(logs)
+    } else {
+        read_logs(data, robot, payloads)
+    }
+}
+
 /// Run `identify`.
 pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
-    let logs = read_logs(&args.data, &robot, &args.payloads)?;
+    let logs = gather(&args.data, &args.logs, &robot, &args.payloads)?;
     let fitted = matches!(args.method, Method::Auto | Method::Total | Method::Pmsm);
     let min_speed = args
         .min_speed
@@ -332,9 +366,16 @@ pub struct PredictArgs {
     /// Model file written by `identify` (or `reproduce`'s model.json).
     #[arg(long, value_name = "MODEL.json")]
     model: PathBuf,
-    /// Dataset to predict.
-    #[arg(long, value_name = "DIR")]
-    data: PathBuf,
+    /// Dataset to predict (a twin run; its truth is shown for scoring).
+    #[arg(
+        long,
+        value_name = "DIR",
+        required_unless_present = "log",
+        conflicts_with = "log"
+    )]
+    data: Option<PathBuf>,
+    #[command(flatten)]
+    logs: LogArgs,
     #[command(flatten)]
     route: RouteArgs,
     #[command(flatten)]
@@ -348,62 +389,96 @@ pub struct PredictArgs {
 pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let model = read_model(&args.model, &robot)?;
-    let mut logs = read_logs(std::slice::from_ref(&args.data), &robot, &args.payloads)?;
-    let log = logs.remove(0);
-    let ds = Dataset::read(&args.data)?;
-    let p = prepare(&log, args.route.route())?;
-    let events = p.motion_events();
-    let pred = model.predict(
-        &robot,
-        p.motion.as_ref(),
-        &events,
-        DATASHEET_EFFICIENCY,
-        1e-3,
-    )?;
-    let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
-        .iter()
-        .sum();
+    let data: Vec<PathBuf> = args.data.iter().cloned().collect();
+    let logs = gather(&data, &args.logs, &robot, &args.payloads)?;
     // The twin's truth, for scoring only: the energy of the logged signal.
-    let simulated = if model.signal.clipped() {
-        ds.meta.summary.energy_grid_j
-    } else {
-        ds.meta.summary.energy_total_j
-    };
-    let t: Vec<f64> = p.states.t.iter().map(|t| t - p.motion_t0_s).collect();
-    let power =
-        model.power_with_payloads(&robot, p.motion.as_ref(), &events, DATASHEET_EFFICIENCY, &t)?;
-    let se: f64 = power
-        .iter()
-        .zip(&p.p_total)
-        .map(|(pp, y)| {
-            let pp = if model.signal.clipped() {
-                pp.max(0.0)
+    let simulated = match &args.data {
+        Some(d) => {
+            let ds = Dataset::read(d)?;
+            Some(if model.signal.clipped() {
+                ds.meta.summary.energy_grid_j
             } else {
-                *pp
-            };
-            (pp - y).powi(2)
-        })
-        .sum();
-    let rmse = (se / p.states.len() as f64).sqrt();
+                ds.meta.summary.energy_total_j
+            })
+        }
+        None => None,
+    };
+    let mut rows = Vec::new();
+    for log in &logs {
+        let p = prepare(log, args.route.route())?;
+        let events = p.motion_events();
+        let pred = model.predict(
+            &robot,
+            p.motion.as_ref(),
+            &events,
+            DATASHEET_EFFICIENCY,
+            1e-3,
+        )?;
+        let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
+            .iter()
+            .sum();
+        let t: Vec<f64> = p.states.t.iter().map(|t| t - p.motion_t0_s).collect();
+        let power = model.power_with_payloads(
+            &robot,
+            p.motion.as_ref(),
+            &events,
+            DATASHEET_EFFICIENCY,
+            &t,
+        )?;
+        let se: f64 = power
+            .iter()
+            .zip(&p.p_total)
+            .map(|(pp, y)| {
+                let pp = if model.signal.clipped() {
+                    pp.max(0.0)
+                } else {
+                    *pp
+                };
+                (pp - y).powi(2)
+            })
+            .sum();
+        let rmse = (se / p.states.len() as f64).sqrt();
+        rows.push((log.source.clone(), pred, measured, rmse));
+    }
     let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
-    let predicted = pred.energy_j;
-    if args.json {
-        super::emit(&format!(
-            "{}\n",
-            serde_json::to_string_pretty(&json!({
-                "predicted_J": predicted, "interval_95_J": pred.interval_j,
-                "simulated_J": simulated, "measured_J": measured,
-                "error_vs_simulated_pct": pct(predicted, simulated), "error_vs_measured_pct": pct(predicted, measured),
+    let json_rows: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|(source, pred, measured, rmse)| {
+            let mut v = json!({
+                "source": source,
+                "predicted_J": pred.energy_j, "interval_95_J": pred.interval_j,
+                "measured_J": measured, "error_vs_measured_pct": pct(pred.energy_j, *measured),
                 "power_rmse_W": rmse, "power_signal": model.signal.name(),
-            }))?
-        ))?;
+            });
+            if let (Some(sim), 1) = (simulated, rows.len()) {
+                v["simulated_J"] = json!(sim);
+                v["error_vs_simulated_pct"] = json!(pct(pred.energy_j, sim));
+            }
+            v
+        })
+        .collect();
+    if args.json {
+        let out = if json_rows.len() == 1 {
+            json_rows[0].clone()
+        } else {
+            json!(json_rows)
+        };
+        super::emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
     } else {
-        super::emit(&format!(
-            "predicted {predicted:.2} ± {:.2} J (95 %), simulated {simulated:.2} J ({:+.3} %), measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W\n",
-            pred.interval_j,
-            pct(predicted, simulated),
-            pct(predicted, measured)
-        ))?;
+        let mut o = String::new();
+        for (source, pred, measured, rmse) in &rows {
+            let sim = match (simulated, rows.len()) {
+                (Some(s), 1) => format!(", simulated {s:.2} J ({:+.3} %)", pct(pred.energy_j, s)),
+                _ => String::new(),
+            };
+            o.push_str(&format!(
+                "{source}: predicted {:.2} ± {:.2} J (95 %){sim}, measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W\n",
+                pred.energy_j,
+                pred.interval_j,
+                pct(pred.energy_j, *measured)
+            ));
+        }
+        super::emit(&o)?;
     }
     Ok(ExitCode::SUCCESS)
 }

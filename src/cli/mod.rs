@@ -24,6 +24,7 @@ mod dynamics;
 mod excite;
 mod export;
 mod identify;
+mod log;
 mod model;
 mod progress;
 mod reproduce;
@@ -287,6 +288,7 @@ impl TwinArgs {
             power_signal: self.truth.power_signal(),
             noise,
             seed: self.noise_seed,
+            ..SensorSettings::default()
         };
         Ok(Setup {
             robot,

@@ -5,7 +5,18 @@
 //!
 //! A twin dataset gives its log with [`crate::dataset::Dataset::log`]; a user's own recording
 //! (CSV or Parquet, any column names and units) is read into one by [`crate::measurement`]'s
-//! readers.
+//! readers: [`read::read_log`] reads CSV or Parquet with a [`columns::ColumnMap`] (or
+//! powertwin's own column names, or the `ur-rtde` preset), repairs the time base
+//! ([`clean`]), estimates the lag of the power behind the joints ([`lag`]) and reports all
+//! it did in a [`read::ReadReport`]; [`segments`] cuts logs into time ranges or
+//! rest-to-rest moves. The column map format is documented in [`columns`] and
+//! `docs/log-columns.md`.
+
+pub mod clean;
+pub mod columns;
+pub mod lag;
+pub mod read;
+pub mod segments;
 
 use serde::{Deserialize, Serialize};
 

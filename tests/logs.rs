@@ -1,0 +1,811 @@
+//! Measured logs: column maps, messy time bases, units, the power lag, segments, the UR RTDE
+//! preset on a log written by the twin, and identification from such a log.
+
+mod common;
+
+use std::f64::consts::{PI, TAU};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+use powertwin::dataset::Dataset;
+use powertwin::dataset::meta::Urdf;
+use powertwin::dynamics::ParamLayout;
+use powertwin::identification::data::{Route, prepare};
+use powertwin::identification::energy::window_energies;
+use powertwin::identification::model::PowerModel;
+use powertwin::identification::pmsm;
+use powertwin::identification::states::States;
+use powertwin::measurement::columns::{ColumnMap, PowerKind};
+use powertwin::measurement::lag::estimate_lag;
+use powertwin::measurement::read::{LagOption, ReadOptions, ReadReport, parse_iso8601, read_log};
+use powertwin::measurement::segments::{
+    MoveOptions, SegmentSpec, auto_moves, rests, select, slice_time,
+};
+use powertwin::measurement::{Log, PowerSignal};
+use powertwin::model::builtin;
+use powertwin::model::drive::Drive;
+use powertwin::trajectory::random::{RandomPointToPointOptions, random_point_to_point};
+use powertwin::twin::TwinConfig;
+use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::validation::rig::Rig;
+use rand::RngExt;
+
+fn write(name: &str, text: &str) -> PathBuf {
+    let p = common::tmp(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn map(text: &str) -> ColumnMap {
+    ColumnMap::from_toml_str(text, "test map").unwrap()
+}
+
+fn read(path: &Path, map: Option<&ColumnMap>) -> (Vec<Log>, ReadReport) {
+    read_log(path, map, &ReadOptions::default()).unwrap()
+}
+
+fn read_err(path: &Path, map: Option<&ColumnMap>) -> String {
+    read_log(path, map, &ReadOptions::default())
+        .unwrap_err()
+        .to_string()
+}
+
+/// A CSV in powertwin's names: two joints moving as sines, power 100 + 10 sin t, at the
+/// times `t`.
+fn own_csv(t: &[f64]) -> String {
+    let mut s = String::from("t_s,q1_rad,q2_rad,P_total_W\n");
+    for &t in t {
+        s += &format!(
+            "{t},{},{},{}\n",
+            t.sin(),
+            0.5 * t.cos(),
+            100.0 + 10.0 * t.sin()
+        );
+    }
+    s
+}
+
+#[test]
+fn powertwin_names_just_work() {
+    let t: Vec<f64> = (0..50).map(|k| 0.1 * k as f64).collect();
+    let (logs, rep) = read(&write("own.csv", &own_csv(&t)), None);
+    assert_eq!(logs.len(), 1);
+    let l = &logs[0];
+    assert_eq!((l.dof(), l.len(), rep.rows), (2, 50, 50));
+    assert_eq!(l.signal, PowerSignal::Total);
+    assert_eq!(l.q_rad[0][7], t[7].sin());
+    assert_eq!(l.power_w[3], 100.0 + 10.0 * t[3].sin());
+    assert!(l.dq_rad_s.is_none() && l.motor_power_w.is_none());
+    assert_eq!((rep.duplicates_merged, rep.gaps, rep.decimation), (0, 0, 1));
+    // Per-motor columns only: the total is their sum, the signal per-motor -> total.
+    let mut s = String::from("t_s,q1_rad,dq1_rad_s,p_elec1_W\n");
+    for k in 0..30 {
+        s += &format!(
+            "{},{},{},{}\n",
+            0.1 * k as f64,
+            k as f64 * 0.01,
+            0.1,
+            5.0 + k as f64
+        );
+    }
+    let (logs, _) = read(&write("motors.csv", &s), None);
+    assert_eq!(logs[0].power_w[4], 9.0);
+    assert_eq!(logs[0].motor_power_w.as_ref().unwrap()[0][4], 9.0);
+    assert_eq!(logs[0].dq_rad_s.as_ref().unwrap()[0][2], 0.1);
+    // No power column: the error says what the own names are.
+    let e = read_err(&write("nopower.csv", "t_s,q1_rad\n0,1\n1,2\n"), None);
+    assert!(
+        e.contains("no power column") && e.contains("--columns"),
+        "{e}"
+    );
+}
+
+#[test]
+fn jittered_time_stamps_are_kept_as_they_are() {
+    let mut rng = common::rng(3);
+    let t: Vec<f64> = (0..200)
+        .map(|k| 5.0 + 0.04 * k as f64 + rng.random_range(-0.008..0.008))
+        .collect();
+    let (logs, rep) = read(&write("jitter.csv", &own_csv(&t)), None);
+    assert_eq!((logs.len(), logs[0].len(), rep.gaps), (1, 200, 0));
+    assert_eq!(rep.t0_s, t[0]);
+    for k in 0..200 {
+        assert!((logs[0].t_s[k] - (t[k] - t[0])).abs() < 1e-12);
+    }
+    // Uniform jitter of +-8 ms on both ends of a period: RMS 8 sqrt(2/3) = 6.5 ms.
+    assert!(
+        (0.0055..0.0075).contains(&rep.period_jitter_s),
+        "{}",
+        rep.period_jitter_s
+    );
+}
+
+#[test]
+fn duplicated_time_stamps_are_averaged_and_counted() {
+    let s = "t_s,q1_rad,P_total_W\n0,0,10\n0.1,1,20\n0.1,3,40\n0.2,2,30\n0.2,2,30\n0.2,2,30\n0.3,3,30\n";
+    let m = ColumnMap {
+        clean: powertwin::measurement::columns::CleanOptions {
+            min_piece_samples: 2,
+            ..Default::default()
+        },
+        ..ColumnMap::powertwin(&["t_s".into(), "q1_rad".into(), "P_total_W".into()], "x").unwrap()
+    };
+    let (logs, rep) = read(&write("dup.csv", s), Some(&m));
+    assert_eq!(rep.duplicates_merged, 3);
+    assert_eq!(logs[0].t_s, vec![0.0, 0.1, 0.2, 0.3]);
+    assert_eq!(logs[0].q_rad[0], vec![0.0, 2.0, 2.0, 3.0]);
+    assert_eq!(logs[0].power_w, vec![10.0, 30.0, 30.0, 30.0]);
+}
+
+#[test]
+fn time_going_backwards_is_an_error_naming_the_row() {
+    let mut t: Vec<f64> = (0..30).map(|k| 0.1 * k as f64).collect();
+    t[4] = 0.25; // data row 5 = CSV row 6 goes back from 0.3 s
+    let e = read_err(&write("back.csv", &own_csv(&t)), None);
+    assert!(e.contains("row 6") && e.contains("backwards"), "{e}");
+    assert!(e.contains("back.csv"), "{e}");
+}
+
+#[test]
+fn missing_cells_are_errors_naming_row_and_column_unless_dropped() {
+    let t: Vec<f64> = (0..30).map(|k| 0.1 * k as f64).collect();
+    let text = own_csv(&t);
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    lines[3] = "0.2,0.19866933079506122,NaN,101.98669330795061".into(); // CSV row 4
+    lines[9] = "0.8,0.7173560908995228,,107.17356090899523".into(); // CSV row 10
+    let p = write("nan.csv", &(lines.join("\n") + "\n"));
+    let e = read_err(&p, None);
+    assert!(
+        e.contains("row 4") && e.contains("column 'q2_rad'") && e.contains("2 rows"),
+        "{e}"
+    );
+    let m = map(r#"
+[time]
+column = "t_s"
+[joints]
+position = ["q1_rad", "q2_rad"]
+[power]
+column = "P_total_W"
+[clean]
+drop_missing = true
+"#);
+    let (logs, rep) = read(&p, Some(&m));
+    assert_eq!(rep.missing_rows_dropped, 2);
+    assert_eq!(logs[0].len(), 28);
+    // A short row: the absent cells are missing too; a trailing delimiter is ignored.
+    let short = "t_s,q1_rad,q2_rad,P_total_W\n0,1,2,3,\n0.1,1\n";
+    let e = read_err(&write("short.csv", short), None);
+    assert!(e.contains("row 3") && e.contains("column 'q2_rad'"), "{e}");
+    // Text that is not a number is always an error.
+    lines[3] = "0.2,0.19866933079506122,abc,101.98669330795061".into();
+    let e = read_err(&write("text.csv", &(lines.join("\n") + "\n")), Some(&m));
+    assert!(
+        e.contains("row 4") && e.contains("'abc' is not a number"),
+        "{e}"
+    );
+}
+
+#[test]
+fn gaps_split_the_log_or_are_refused() {
+    let mut t: Vec<f64> = (0..60).map(|k| 0.1 * k as f64).collect();
+    for v in &mut t[30..] {
+        *v += 2.0; // a 2.1 s step between data rows 30 and 31 (CSV row 32)
+    }
+    let p = write("gap.csv", &own_csv(&t));
+    let (logs, rep) = read(&p, None);
+    assert_eq!((rep.gaps, logs.len()), (1, 2));
+    assert_eq!((logs[0].len(), logs[1].len()), (30, 30));
+    assert!((logs[1].t_s[0] - 5.0).abs() < 1e-12);
+    assert_eq!(rep.pieces.len(), 2);
+    // A short piece is dropped and counted.
+    let mut t2 = t.clone();
+    for v in &mut t2[50..] {
+        *v += 3.0;
+    }
+    let (logs, rep) = read(&write("gap2.csv", &own_csv(&t2)), None);
+    assert_eq!(
+        (rep.gaps, logs.len(), rep.short_piece_samples_dropped),
+        (2, 2, 10)
+    );
+    let m = map(r#"
+[time]
+column = "t_s"
+[joints]
+position = ["q1_rad", "q2_rad"]
+[power]
+column = "P_total_W"
+[clean]
+on_gap = "error"
+"#);
+    let e = read_err(&p, Some(&m));
+    assert!(e.contains("row 32") && e.contains("gap of 2.100000"), "{e}");
+}
+
+#[test]
+fn units_are_converted_deg_kw_ms_and_voltage_times_current() {
+    let mut s = String::from("stamp;a;b;va;vb;P;U;I\n");
+    for k in 0..40 {
+        let t = 1000.0 + 20.0 * k as f64; // ms
+        s += &format!(
+            "{t};{};{};{};{};{};{};{}\n",
+            90.0,
+            180.0 + k as f64,
+            57.0,
+            -3.0,
+            0.25,
+            48.0,
+            2.5
+        );
+    }
+    let p = write("units.csv", &s);
+    let m = map(r#"
+[time]
+column = "stamp"
+unit = "ms"
+[joints]
+position = ["a", "b"]
+position_unit = "deg"
+velocity = ["va", "vb"]
+velocity_unit = "deg/s"
+[power]
+signal = "grid"
+column = "P"
+unit = "kW"
+"#);
+    let (logs, rep) = read(&p, Some(&m));
+    let l = &logs[0];
+    assert_eq!(rep.t0_s, 1.0);
+    assert!((l.t_s[39] - 0.78).abs() < 1e-12);
+    assert!((l.q_rad[0][0] - PI / 2.0).abs() < 1e-15);
+    assert!((l.q_rad[1][10] - 190.0_f64.to_radians()).abs() < 1e-14);
+    assert!((l.dq_rad_s.as_ref().unwrap()[1][3] + 3.0_f64.to_radians()).abs() < 1e-15);
+    assert_eq!(l.power_w[0], 250.0);
+    assert_eq!(l.signal, PowerSignal::Grid);
+    // Voltage x current on the same file, the DC bus.
+    let m = map(r#"
+[time]
+column = "stamp"
+unit = "ms"
+[joints]
+position = ["a", "b"]
+position_unit = "deg"
+[power]
+signal = "bus"
+voltage = "U"
+current = "I"
+"#);
+    let (logs, _) = read(&p, Some(&m));
+    assert_eq!(logs[0].power_w[5], 120.0);
+    assert_eq!(logs[0].signal, PowerSignal::Bus);
+    // --power overrides the map; per-motor without motor columns is refused.
+    let e = read_log(
+        &p,
+        Some(&m),
+        &ReadOptions {
+            power: Some(PowerKind::PerMotor),
+            ..ReadOptions::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("per-motor") && e.contains("motors"), "{e}");
+}
+
+#[test]
+fn unix_and_iso8601_time_stamps() {
+    assert_eq!(parse_iso8601("1970-01-01T00:00:00Z"), Some(0.0));
+    assert_eq!(parse_iso8601("2000-03-01 00:00:00"), Some(951_868_800.0));
+    assert_eq!(
+        parse_iso8601("2026-11-23T12:00:00.25+02:00"),
+        Some(1_795_435_200.25 - 7200.0)
+    );
+    assert_eq!(parse_iso8601("2026-13-01T00:00:00Z"), None);
+    assert_eq!(parse_iso8601("yesterday"), None);
+    // ISO-8601 text at 10 Hz with an offset.
+    let mut s = String::from("time,q,p\n");
+    for k in 0..30 {
+        s += &format!(
+            "2026-11-23T12:00:{:02}.{}+02:00,{},{}\n",
+            k / 10,
+            k % 10,
+            k,
+            50
+        );
+    }
+    let m = map(r#"
+[time]
+column = "time"
+unit = "iso8601"
+[joints]
+position = ["q"]
+[power]
+column = "p"
+"#);
+    let (logs, rep) = read(&write("iso.csv", &s), Some(&m));
+    assert_eq!(rep.t0_s, 1_795_435_200.0 - 7200.0);
+    assert!((logs[0].t_s[29] - 2.9).abs() < 1e-6); // Unix seconds in f64: 0.2 us steps
+    assert!((rep.median_period_s - 0.1).abs() < 1e-6);
+    // Unix time in ms, 8 ms jitter-free at 125 Hz (below the working rate: kept).
+    let mut s = String::from("unix_ms,q,p\n");
+    for k in 0..100 {
+        s += &format!("{},{},{}\n", 1_795_924_800_000_u64 + 8 * k, k, 50);
+    }
+    let m = map(r#"
+[time]
+column = "unix_ms"
+unit = "ms"
+[joints]
+position = ["q"]
+[power]
+column = "p"
+"#);
+    let (logs, rep) = read(&write("unix.csv", &s), Some(&m));
+    assert_eq!(rep.t0_s, 1_795_924_800.0);
+    assert_eq!(rep.decimation, 2); // 125 Hz > 100 Hz: pairs averaged, 62.5 Hz
+    assert_eq!(logs[0].len(), 50);
+    assert!((logs[0].t_s[1] - logs[0].t_s[0] - 0.016).abs() < 1e-6);
+    // Not a date: the row and column are named.
+    let e = read_err(
+        &write(
+            "baddate.csv",
+            "time,q,p\n2026-11-23T12:00:00Z,1,2\nnoon,1,2\n",
+        ),
+        Some(&map(r#"
+[time]
+column = "time"
+unit = "iso8601"
+[joints]
+position = ["q"]
+[power]
+column = "p"
+"#)),
+    );
+    assert!(e.contains("row 3") && e.contains("'time'"), "{e}");
+}
+
+#[test]
+fn multi_turn_joints_stay_continuous_and_wrapped_columns_are_unwrapped() {
+    // Joint 1 turns from 12 to 16.5 rad (multi-turn, logged continuous); joint 2 is the
+    // same motion logged modulo 2 pi in (-pi, pi], wrapping once (at 5 pi).
+    let t: Vec<f64> = (0..100).map(|k| 0.05 * k as f64).collect();
+    let q: Vec<f64> = t.iter().map(|t| 12.0 + 0.9 * t).collect();
+    let mut s = String::from("t_s,q1_rad,q2_rad,P_total_W\n");
+    for (t, q) in t.iter().zip(&q) {
+        let w = q.sin().atan2(q.cos());
+        s += &format!("{t},{q},{w},1\n");
+    }
+    let p = write("turns.csv", &s);
+    let (logs, rep) = read(&p, None);
+    assert_eq!(logs[0].q_rad[0], q);
+    assert_eq!(rep.unwrapped_jumps, 0);
+    assert_eq!(rep.suspect_jumps, 1); // the wrap in q2, reported, not changed
+    let m = map(r#"
+[time]
+column = "t_s"
+[joints]
+position = ["q1_rad", "q2_rad"]
+wrapped = [2]
+[power]
+column = "P_total_W"
+"#);
+    let (logs, rep) = read(&p, Some(&m));
+    assert_eq!((rep.unwrapped_jumps, rep.suspect_jumps), (1, 0));
+    for (u, q) in logs[0].q_rad[1].iter().zip(&q) {
+        assert!((u - (q - 2.0 * TAU)).abs() < 1e-12);
+    }
+    let bad = ColumnMap::from_toml_str(
+        "[time]\ncolumn = \"t\"\n[joints]\nposition = [\"a\"]\nwrapped = [2]\n[power]\ncolumn = \"p\"\n",
+        "bad.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(bad.contains("bad.toml") && bad.contains("joint 2"), "{bad}");
+}
+
+#[test]
+fn a_1khz_log_is_block_averaged_to_100hz_keeping_the_energy() {
+    let t: Vec<f64> = (0..3000).map(|k| 1e-3 * k as f64).collect();
+    let (logs, rep) = read(&write("fast.csv", &own_csv(&t)), None);
+    let l = &logs[0];
+    assert_eq!((rep.decimation, l.len()), (10, 300));
+    assert!((rep.working_rate_hz - 100.0).abs() < 1e-6);
+    assert!((l.t_s[0] - 0.0045).abs() < 1e-12);
+    let mean_in: f64 = t.iter().map(|t| 100.0 + 10.0 * t.sin()).sum::<f64>() / 3000.0;
+    let mean_out: f64 = l.power_w.iter().sum::<f64>() / 300.0;
+    assert!((mean_in - mean_out).abs() < 1e-9, "{mean_in} {mean_out}");
+    // Positions: the block mean of sin is within 1e-5 rad of sin at the mean time.
+    for k in 0..300 {
+        assert!((l.q_rad[0][k] - l.t_s[k].sin()).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn parquet_logs_with_int_timestamps_and_f32_columns() {
+    use arrow_array::{ArrayRef, Float32Array, Float64Array, Int64Array, RecordBatch};
+    use arrow_schema::{DataType, Field, Schema};
+    let n = 40;
+    let schema = Arc::new(Schema::new(vec![
+        Field::new("ns", DataType::Int64, false),
+        Field::new("q", DataType::Float32, true),
+        Field::new("p", DataType::Float64, false),
+    ]));
+    let ns: Vec<i64> = (0..n)
+        .map(|k| 1_795_924_800_000_000_000 + 40_000_000 * k)
+        .collect();
+    let q: Vec<Option<f32>> = (0..n).map(|k| Some(0.5 * k as f32)).collect();
+    let p: Vec<f64> = (0..n).map(|k| 10.0 + k as f64).collect();
+    let cols: Vec<ArrayRef> = vec![
+        Arc::new(Int64Array::from(ns)),
+        Arc::new(Float32Array::from(q.clone())),
+        Arc::new(Float64Array::from(p)),
+    ];
+    let batch = RecordBatch::try_new(schema.clone(), cols).unwrap();
+    let path = common::tmp("log.parquet");
+    let f = std::fs::File::create(&path).unwrap();
+    let mut w = parquet::arrow::ArrowWriter::try_new(f, schema.clone(), None).unwrap();
+    w.write(&batch).unwrap();
+    w.close().unwrap();
+    let m = map(
+        "[time]\ncolumn = \"ns\"\nunit = \"ns\"\n[joints]\nposition = [\"q\"]\n[power]\ncolumn = \"p\"\n",
+    );
+    let (logs, rep) = read(&path, Some(&m));
+    assert!((rep.t0_s - 1_795_924_800.0).abs() < 1e-6);
+    assert!((logs[0].t_s[39] - 1.56).abs() < 1e-6);
+    assert_eq!(logs[0].q_rad[0][3], 1.5);
+    assert_eq!(logs[0].power_w[2], 12.0);
+    // A null cell is named by column and data row.
+    let mut q2 = q;
+    q2[6] = None;
+    let cols: Vec<ArrayRef> = vec![
+        Arc::new(Int64Array::from(
+            (0..n).map(|k| k * 40_000_000).collect::<Vec<_>>(),
+        )),
+        Arc::new(Float32Array::from(q2)),
+        Arc::new(Float64Array::from(vec![1.0; n as usize])),
+    ];
+    let path = common::tmp("null.parquet");
+    let f = std::fs::File::create(&path).unwrap();
+    let mut w = parquet::arrow::ArrowWriter::try_new(f, schema.clone(), None).unwrap();
+    w.write(&RecordBatch::try_new(schema, cols).unwrap())
+        .unwrap();
+    w.close().unwrap();
+    let e = read_err(&path, Some(&m));
+    assert!(e.contains("data row 7") && e.contains("column 'q'"), "{e}");
+}
+
+#[test]
+fn segment_ranges_parse_and_slice() {
+    assert_eq!(
+        "0-12.5, 20-40".parse::<SegmentSpec>().unwrap(),
+        SegmentSpec::Ranges(vec![(0.0, 12.5), (20.0, 40.0)])
+    );
+    assert_eq!("auto".parse::<SegmentSpec>().unwrap(), SegmentSpec::Auto);
+    for bad in ["5-2", "a-b", "3", "-1-2"] {
+        assert!(bad.parse::<SegmentSpec>().is_err(), "{bad}");
+    }
+    let t: Vec<f64> = (0..100).map(|k| k as f64 / 10.0).collect();
+    let (logs, _) = read(&write("seg.csv", &own_csv(&t)), None);
+    let s = slice_time(&logs[0], (2.0, 3.0)).unwrap();
+    assert_eq!(s.len(), 11);
+    assert!((s.t_s[0] - 2.0).abs() < 1e-12);
+    let e = slice_time(&logs[0], (20.0, 30.0)).unwrap_err().to_string();
+    assert!(e.contains("0 samples"), "{e}");
+    let picked = select(&logs, &"1-2,5-6".parse().unwrap(), &MoveOptions::default()).unwrap();
+    assert_eq!(
+        picked.iter().map(Log::len).collect::<Vec<_>>(),
+        vec![11, 11]
+    );
+    assert!("all".parse::<LagOption>().is_err());
+    assert_eq!("0.25".parse::<LagOption>().unwrap(), LagOption::Fixed(0.25));
+}
+
+// ---------------------------------------------------------------------------------------
+// Logs written by the twin.
+
+/// Via points (the moves are the legs between them) and the dwell at each, s.
+const POINTS: usize = 41;
+const DWELL_S: f64 = 1.0;
+/// The arm's DC bus, V.
+const BUS_V: f64 = 48.0;
+/// Cabinet electronics on the bus (a constant meter offset), W: with the drives' 18.5 W
+/// standby the arm draws 37 W at rest.
+const CABINET_W: f64 = 18.5;
+
+/// A twin run of random point-to-point moves with dwells, logged at 25 Hz on the DC bus.
+fn twin_run() -> &'static (Dataset, Vec<f64>) {
+    static RUN: OnceLock<(Dataset, Vec<f64>)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let robot = common::irb1200();
+        let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "drive", &robot).unwrap();
+        let rig = Rig {
+            robot: &robot,
+            urdf: Urdf::inline(builtin::IRB1200_URDF),
+            drive: &drive,
+            twin: TwinConfig::default(),
+            sensor: SensorSettings {
+                rate_hz: 25.0,
+                power_signal: PowerSignal::Bus,
+                noise: NoiseSettings {
+                    power_offset_w: CABINET_W,
+                    ..NoiseSettings::default()
+                },
+                ..SensorSettings::default()
+            },
+        };
+        let traj = random_point_to_point(
+            &robot,
+            &mut common::rng(11),
+            &RandomPointToPointOptions {
+                points: POINTS,
+                dwell_s: DWELL_S,
+                ..RandomPointToPointOptions::default()
+            },
+        )
+        .unwrap();
+        let ds = rig.run(&traj, &[], 0, serde_json::json!({})).unwrap();
+        // RTDE time stamps: controller time from 1234.5 s, +-3 ms jitter.
+        let mut rng = common::rng(12);
+        let stamps = ds
+            .measured
+            .t
+            .iter()
+            .map(|t| 1234.5 + t + rng.random_range(-0.003..0.003))
+            .collect();
+        (ds, stamps)
+    })
+}
+
+/// Write the twin's measured stream as a UR RTDE recording (space-delimited, as RTDE's
+/// `record.py` writes), the power shifted late by `lag_s` (from the 1 kHz truth).
+fn write_rtde(name: &str, lag_s: f64) -> PathBuf {
+    let (ds, stamps) = twin_run();
+    let n = 6;
+    let stride = ds.meta.measurement.stride(ds.truth.dt).unwrap();
+    let shift = (lag_s / ds.truth.dt).round() as usize;
+    let mut s = String::from("timestamp");
+    for i in 0..n {
+        s += &format!(" actual_q_{i}");
+    }
+    for i in 0..n {
+        s += &format!(" actual_qd_{i}");
+    }
+    s += " actual_robot_voltage actual_robot_current target_q_0\n";
+    let m = &ds.measured;
+    for (k, stamp) in stamps.iter().enumerate() {
+        if k * stride < shift {
+            continue;
+        }
+        s += &format!("{stamp}");
+        for i in 0..n {
+            s += &format!(" {}", m.q[i][k]);
+        }
+        for i in 0..n {
+            s += &format!(" {}", ds.truth.dq[i][k * stride]);
+        }
+        let p = if shift == 0 {
+            m.p_total[k]
+        } else {
+            ds.truth.p_grid[k * stride - shift] + CABINET_W
+        };
+        s += &format!(" {BUS_V} {} 0\n", p / BUS_V);
+    }
+    write(name, &s)
+}
+
+fn rtde(path: &Path, lag: LagOption) -> (Vec<Log>, ReadReport) {
+    read_log(
+        path,
+        Some(&ColumnMap::load("ur-rtde").unwrap()),
+        &ReadOptions { power: None, lag },
+    )
+    .unwrap()
+}
+
+#[test]
+fn ur_rtde_preset_round_trips_a_twin_log() {
+    let (ds, stamps) = twin_run();
+    let (logs, rep) = rtde(&write_rtde("rtde.csv", 0.0), LagOption::Report);
+    eprintln!("{rep}");
+    assert_eq!(logs.len(), 1);
+    let l = &logs[0];
+    let m = &ds.measured;
+    assert_eq!(
+        (l.len(), l.dof(), rep.gaps, rep.decimation),
+        (m.t.len(), 6, 0, 1)
+    );
+    assert_eq!(l.signal, PowerSignal::Bus);
+    assert_eq!(rep.t0_s, stamps[0]);
+    for (k, stamp) in stamps.iter().enumerate() {
+        assert!((l.t_s[k] - (stamp - stamps[0])).abs() < 1e-9);
+        assert!((l.power_w[k] - m.p_total[k]).abs() <= 1e-12 * m.p_total[k].abs().max(1.0));
+        for i in 0..6 {
+            assert_eq!(l.q_rad[i][k], m.q[i][k]);
+        }
+    }
+    assert!(
+        l.power_w.iter().all(|p| *p > 0.0),
+        "the bus never goes negative"
+    );
+    let lag = rep.lag.expect("lag estimated");
+    assert!(lag.lag_s.abs() < 0.03, "{lag:?}");
+}
+
+#[test]
+fn the_power_lag_is_estimated_and_applied() {
+    let (ds, _) = twin_run();
+    let (logs, rep) = rtde(&write_rtde("rtde_lag.csv", 0.2), LagOption::Auto);
+    eprintln!("{rep}");
+    let lag = rep.lag.expect("lag estimated");
+    assert!((lag.lag_s - 0.2).abs() < 0.03, "{lag:?}");
+    assert!(lag.r2 > lag.r2_at_zero);
+    assert_eq!(rep.lag_applied_s, lag.lag_s);
+    assert!(rep.lag_trimmed >= 5);
+    // Aligned, the power is the unshifted stream again (less the noise it lacks).
+    let l = &logs[0];
+    let first = ds.measured.t.len() - l.len() - rep.lag_trimmed;
+    let err: f64 = (0..l.len())
+        .map(|k| (l.power_w[k] - ds.measured.p_total[k + first]).powi(2))
+        .sum::<f64>()
+        / l.len() as f64;
+    assert!(
+        err.sqrt() < 5.0,
+        "aligned power RMS difference {} W",
+        err.sqrt()
+    );
+    // The same estimate from the library call on the log itself.
+    let direct = estimate_lag(&l.t_s, &l.q_rad, l.dq_rad_s.as_deref(), &l.power_w, 1.0).unwrap();
+    assert!(direct.lag_s.abs() < 0.03, "{direct:?}");
+}
+
+#[test]
+fn auto_segments_find_the_rest_to_rest_moves() {
+    let (logs, _) = rtde(&write_rtde("rtde_seg.csv", 0.0), LagOption::Report);
+    let moves = auto_moves(&logs[0], &MoveOptions::default());
+    assert_eq!(moves.len(), POINTS - 1, "{moves:?}");
+    for w in moves.windows(2) {
+        assert!(w[1].0 - w[0].1 > 0.5 * DWELL_S, "{moves:?}");
+    }
+}
+
+/// Concatenate prepared states.
+fn concat(parts: &[States]) -> States {
+    let n = parts[0].q.len();
+    let mut s = States {
+        t: Vec::new(),
+        q: vec![Vec::new(); n],
+        dq: vec![Vec::new(); n],
+        ddq: vec![Vec::new(); n],
+    };
+    for p in parts {
+        s.t.extend_from_slice(&p.t);
+        for i in 0..n {
+            s.q[i].extend_from_slice(&p.q[i]);
+            s.dq[i].extend_from_slice(&p.dq[i]);
+            s.ddq[i].extend_from_slice(&p.ddq[i]);
+        }
+    }
+    s
+}
+
+#[test]
+#[ignore = "misses the targets (measured: worst held-out move 9.3 %, sum of identified constants 198 W for the twin's 37 W, rest power 163 W off at dq = 0): pmsm::identify neither models bus power that cannot go negative nor keeps the fit physical (issue 10/11, lead)"]
+fn identify_on_half_the_moves_predict_the_rest() {
+    let robot = common::irb1200();
+    let (logs, _) = rtde(&write_rtde("rtde_id.csv", 0.0), LagOption::Report);
+    let moves = select(&logs, &SegmentSpec::Auto, &MoveOptions::default()).unwrap();
+    let route = Route::Smoothing {
+        window: 9,
+        degree: 4,
+    };
+    let prepared: Vec<_> = moves.iter().map(|m| prepare(m, route).unwrap()).collect();
+    let (fit, held): (Vec<_>, Vec<_>) = prepared.iter().enumerate().partition(|(k, _)| k % 2 == 0);
+    let states = concat(
+        &fit.iter()
+            .map(|(_, p)| p.states.clone())
+            .collect::<Vec<_>>(),
+    );
+    let y: Vec<f64> = fit.iter().flat_map(|(_, p)| p.p_total.clone()).collect();
+    let layout = ParamLayout::new(&robot, true, true);
+    let mut model = PowerModel::new(&robot, layout, false).unwrap();
+    let est = pmsm::identify(&robot, &mut model, &states, &y).unwrap();
+    let standby: f64 = model.constant.iter().sum();
+    eprintln!(
+        "pmsm on {} moves: residual RMS {:.3} W, condition {:.1}, standby {standby:.2} W (twin {} W)",
+        fit.len(),
+        est.residual_rms,
+        est.cond,
+        18.5 + CABINET_W
+    );
+    let mut worst: f64 = 0.0;
+    for (k, p) in &held {
+        let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3).unwrap();
+        let measured: f64 = window_energies(&p.states.t, &p.p_total, false).iter().sum();
+        let err = 100.0 * (predicted - measured) / measured;
+        eprintln!("move {k}: predicted {predicted:.1} J, measured {measured:.1} J, {err:+.2} %");
+        worst = worst.max(err.abs());
+    }
+    eprintln!("worst held-out move: {worst:.2} %");
+    // Standby as a user sees it: the power at each rest of the log (>= 0.5 s), measured
+    // (mean) against predicted at the rest pose.
+    let mut ws = powertwin::dynamics::Workspace::new(&robot);
+    let mut w = nalgebra::DMatrix::zeros(robot.dof(), model.layout.len());
+    let zero = vec![0.0; robot.dof()];
+    let mut rest_worst: f64 = 0.0;
+    for r in rests(&logs[0], 0.02, 0.5) {
+        let l = &logs[0];
+        let mean = |v: &[f64]| v[r.clone()].iter().sum::<f64>() / r.len() as f64;
+        let q: Vec<f64> = l.q_rad.iter().map(|q| mean(q)).collect();
+        let predicted = model.power(&robot, &mut ws, &mut w, &q, &zero, &zero);
+        rest_worst = rest_worst.max((predicted - mean(&l.power_w)).abs());
+    }
+    eprintln!("worst rest power error: {rest_worst:.2} W");
+    assert!((standby - 37.0).abs() < 0.5, "standby {standby} W");
+    assert!(rest_worst < 0.5, "rest power off by {rest_worst} W");
+    assert!(worst < 2.0, "worst held-out energy error {worst} %");
+}
+
+#[test]
+fn identify_and_predict_take_logs_on_the_command_line() {
+    let (ds, _) = twin_run();
+    let log = write_rtde("rtde_cli.csv", 0.0);
+    let model = common::tmp("cli_model.json");
+    let (code, _, err) = common::run(&[
+        "identify",
+        "--log",
+        log.to_str().unwrap(),
+        "--columns",
+        "ur-rtde",
+        "--segments",
+        "0-20",
+        "--method",
+        "pmsm",
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let rows = format!("{} rows", ds.measured.t.len());
+    assert!(
+        err.contains(&rows) && err.contains("power lag behind joints"),
+        "{err}"
+    );
+    assert!(
+        err.contains("segment 1:") && err.contains("observations ->"),
+        "{err}"
+    );
+    let (code, out, err) = common::run(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+        "--columns",
+        "ur-rtde",
+        "--segments",
+        "20-30,30-40",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    // The measured energy of the two segments is the trapezoid of the logged bus power
+    // from 20 to 40 s (one 40 ms window at 30 s and the time-stamp jitter aside).
+    let m = &ds.measured;
+    let (a, b) = (
+        m.t.partition_point(|&t| t < 20.0),
+        m.t.partition_point(|&t| t <= 40.0),
+    );
+    let twin: f64 = window_energies(&m.t[a..b], &m.p_total[a..b], false)
+        .iter()
+        .sum();
+    let measured: f64 = rows.iter().map(|r| r["measured_J"].as_f64().unwrap()).sum();
+    assert!(
+        (measured - twin).abs() < 0.01 * twin,
+        "{measured} J from the CLI, {twin} J from the twin"
+    );
+    // --data and --log exclude each other; one of them is required.
+    let (code, _, err) = common::run(&["identify", "--data", "x", "--log", "y", "--out", "m"]);
+    assert!(code != 0 && err.contains("cannot be used with"), "{err}");
+    let (code, _, err) = common::run(&["predict", "--model", "m"]);
+    assert!(code != 0 && err.contains("--data"), "{err}");
+}
