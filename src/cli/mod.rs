@@ -288,7 +288,6 @@ impl TwinArgs {
             power_signal: self.truth.power_signal(),
             noise,
             seed: self.noise_seed,
-            ..SensorSettings::default()
         };
         Ok(Setup {
             robot,
