@@ -15,8 +15,14 @@
 //!    consecutive samples are averaged (time, positions, velocities and power alike), so a
 //!    1 kHz log is worked on at 100 Hz; the mean of the power over a block keeps the energy.
 //!
-//! Non-uniform and jittered time stamps are kept: every later step (the smoothing route of
-//! identification, energy windows, the lag estimate) works with the actual times.
+//! 6. **Jittered stamps of a fixed-rate logger** (`regularize_jitter`, on by default): when
+//!    every stamp of a gap-free piece lies within `max_jitter_periods` of one period of the
+//!    least-squares uniform grid `t0 + k T`, the samples were taken on the controller's clock
+//!    and the jitter is the stamp's (host receive time, clock quantisation): the stamps are
+//!    replaced by the grid (counted, with the largest deviation). Differentiating positions
+//!    against jittered stamps would turn 3 ms of jitter into rad/s^2 of acceleration error.
+//!    Otherwise (a logger that really samples unevenly) the actual times are kept, and every
+//!    later step (the smoothing route, energy windows, the lag estimate) works with them.
 
 use std::f64::consts::{PI, TAU};
 
@@ -188,6 +194,43 @@ pub struct Pieces {
     pub gaps: usize,
     /// Samples in pieces shorter than `min_piece_samples`, dropped.
     pub dropped_samples: usize,
+}
+
+/// Replace the stamps of `frame` by their least-squares uniform grid when no stamp deviates
+/// from it by more than `max_periods` sample periods (see the module docs, step 6). Returns
+/// the largest deviation, s, when the stamps were replaced.
+pub fn regularize(frame: &mut Frame, max_periods: f64) -> Option<f64> {
+    let m = frame.t_s.len();
+    if m < 3 {
+        return None;
+    }
+    let n = m as f64;
+    let mean_k = (n - 1.0) / 2.0;
+    let mean_t = frame.t_s.iter().sum::<f64>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (k, t) in frame.t_s.iter().enumerate() {
+        let dk = k as f64 - mean_k;
+        sxy += dk * (t - mean_t);
+        sxx += dk * dk;
+    }
+    let period = sxy / sxx;
+    if !(period.is_finite() && period > 0.0) {
+        return None;
+    }
+    let grid = |k: usize| mean_t + period * (k as f64 - mean_k);
+    let worst = frame
+        .t_s
+        .iter()
+        .enumerate()
+        .map(|(k, t)| (t - grid(k)).abs())
+        .fold(0.0, f64::max);
+    if worst > max_periods * period {
+        return None;
+    }
+    for (k, t) in frame.t_s.iter_mut().enumerate() {
+        *t = grid(k);
+    }
+    Some(worst)
 }
 
 /// Split `frame` at its gaps (steps longer than `max_gap_periods` median periods), or refuse

@@ -254,6 +254,11 @@ pub struct CleanOptions {
     pub rest_speed_rad_s: f64,
     /// Rests at least this long, s, are reported.
     pub long_rest_s: f64,
+    /// Replace jittered stamps of a fixed-rate logger by their uniform grid (see
+    /// [`crate::measurement::clean::regularize`]).
+    pub regularize_jitter: bool,
+    /// Largest stamp deviation from the grid, in sample periods, for that.
+    pub max_jitter_periods: f64,
 }
 
 impl Default for CleanOptions {
@@ -267,6 +272,8 @@ impl Default for CleanOptions {
             max_lag_s: 2.0,
             rest_speed_rad_s: 0.02,
             long_rest_s: 5.0,
+            regularize_jitter: true,
+            max_jitter_periods: 0.25,
         }
     }
 }

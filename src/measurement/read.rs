@@ -110,6 +110,11 @@ pub struct ReadReport {
     pub short_piece_samples_dropped: usize,
     /// Samples averaged per block to reach the working rate (1: none).
     pub decimation: usize,
+    /// Gap-free pieces whose jittered stamps were replaced by their uniform grid, and the
+    /// largest stamp deviation from the grid among them, s.
+    pub regularized_pieces: usize,
+    /// Largest stamp deviation from the grid in a regularized piece, s.
+    pub regularized_max_dev_s: f64,
     /// Sample rate worked at, Hz (median).
     pub working_rate_hz: f64,
     /// Rests of at least `long_rest_s` (kept): how many and their total duration, s.
@@ -157,6 +162,11 @@ impl fmt::Display for ReadReport {
             self.working_rate_hz,
             self.long_rests,
             self.long_rest_total_s
+        )?;
+        writeln!(
+            f,
+            "  jittered stamps replaced by their uniform grid in {} piece(s) (largest deviation {:.2e} s)",
+            self.regularized_pieces, self.regularized_max_dev_s
         )?;
         match (&self.lag, &self.lag_note) {
             (Some(l), _) => writeln!(
@@ -644,6 +654,15 @@ pub fn read_log(
         )));
     }
     let mut pieces = split.pieces;
+    let (mut regularized_pieces, mut regularized_max_dev_s) = (0, 0.0_f64);
+    if map.clean.regularize_jitter {
+        for p in &mut pieces {
+            if let Some(dev) = clean::regularize(p, map.clean.max_jitter_periods) {
+                regularized_pieces += 1;
+                regularized_max_dev_s = regularized_max_dev_s.max(dev);
+            }
+        }
+    }
     let mut decimation = 1;
     for p in &mut pieces {
         decimation = clean::decimate(p, map.clean.working_rate_hz);
@@ -737,6 +756,8 @@ pub fn read_log(
         gaps: split.gaps,
         short_piece_samples_dropped: split.dropped_samples,
         decimation,
+        regularized_pieces,
+        regularized_max_dev_s,
         working_rate_hz,
         long_rests,
         long_rest_total_s,
