@@ -136,7 +136,9 @@ fn exported_drive_file_reads_back() {
     assert!(text.starts_with("# line one\n# line two\n"));
     assert!(text.contains("# joint 1 note\n[[joint]]"));
     let back = Drive::from_toml_str(&text, "exported", &robot).unwrap();
-    assert_eq!(back, drive);
+    // An identified drive has the model's structure: the twin's unmodelled effects are not
+    // written (nothing identified them).
+    assert_eq!(back, drive.exact());
 }
 
 /// `identify --export-urdf --export-drive` writes files that load as a robot and its drives

@@ -126,7 +126,7 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
     /// Also write the identified robot as URDF: physically consistent link inertials and
-    /// friction (needs --method pmsm or torque); what the data cannot reveal keeps the input
+    /// friction (needs --method auto, total or pmsm); what the data cannot reveal keeps the input
     /// URDF's values.
     #[arg(long, value_name = "OUT.urdf")]
     export_urdf: Option<PathBuf>,

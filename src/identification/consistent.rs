@@ -599,7 +599,7 @@ impl IdentifiedTwin {
         let base = model.base_params(robot)?;
         if model.efficiency_scaled {
             return Err(Error::InvalidInput(
-                "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method pmsm or torque)".into(),
+                "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method auto, total or pmsm)".into(),
             ));
         }
         let nb = model.theta.len();
@@ -610,7 +610,7 @@ impl IdentifiedTwin {
             && estimate.covariance.shape() == (nt, nt);
         if !covers {
             return Err(Error::InvalidInput(
-                "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method pmsm or torque".into(),
+                "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method auto, total or pmsm".into(),
             ));
         }
         let consistent = project(&base, &estimate.values, &estimate.covariance, prior, opts)?;
