@@ -213,12 +213,12 @@ fn identify_exports_the_identified_robot() {
     );
     let text = std::fs::read_to_string(&urdf).unwrap();
     assert!(text.contains("Set by the prior") && text.contains("identified by powertwin"));
-    // A model scaled by 1/efficiency cannot be exported.
+    // A step-by-step model (scaled by 1/efficiency, no joint covariance) cannot be exported.
     std::fs::remove_file(&urdf).unwrap();
-    let total = argv("total");
+    let total = argv("paper-steps");
     let (code, _, err) = common::run(&total.iter().map(String::as_str).collect::<Vec<_>>());
     assert_ne!(code, 0);
-    assert!(err.contains("--method pmsm or torque"), "{err}");
+    assert!(err.contains("--method auto, total or pmsm"), "{err}");
     assert!(!urdf.exists());
 }
 

@@ -148,7 +148,12 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         .map(|j| {
             let mut f = || rng.random_range(0.7..1.3);
             let mut d = *j;
-            d.friction.coulomb *= f();
+            let coulomb = f();
+            d.friction.coulomb *= coulomb;
+            // Static friction keeps its ratio to the Coulomb level.
+            if let Some(fs) = &mut d.unmodelled.stribeck_static {
+                *fs *= coulomb;
+            }
             d.friction.viscous *= f();
             d.rotor_inertia *= f();
             d.copper_loss *= f();

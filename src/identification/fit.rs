@@ -545,17 +545,20 @@ pub fn select(template: &PowerModel, s: &Samples, candidates: &[Estimator]) -> R
         });
         excess.push((unexplained / pieces as f64).max(0.0).sqrt());
     }
-    let best = scores
+    let Some(best) = scores
         .iter()
         .enumerate()
         .min_by(|a, b| a.1.mean_power_rms_w.total_cmp(&b.1.mean_power_rms_w))
         .map(|(i, _)| i)
-        .ok_or_else(|| {
-            Error::InvalidInput(
-                "no estimator could be fitted on every cross-validation fold (too little data?)"
-                    .into(),
-            )
-        })?;
+    else {
+        // No candidate fits every fold: the fit on all data says why (rank deficiency names
+        // the parameters the data cannot reveal), or that the folds were too small.
+        fit(template, s, candidates[0], &|_| true)?;
+        return Err(Error::InvalidInput(
+            "no estimator could be fitted with any one run left out: record more runs or longer ones"
+                .into(),
+        ));
+    };
     let chosen = scores[best].estimator;
     let mut f = fit(template, s, chosen, &|_| true)?;
     f.model.structure_sigma = excess[best];
