@@ -8,7 +8,7 @@ use clap::Args;
 use powertwin::io::table::to_csv;
 use powertwin::io::write_atomic;
 use powertwin::trajectory::Trajectory;
-use powertwin::trajectory::excitation::{ExcitationOptions, design};
+use powertwin::identification::excitation::{ExcitationOptions, design};
 use powertwin::trajectory::limits::IRB1200_ACCEL_LIMITS;
 use serde_json::json;
 

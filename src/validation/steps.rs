@@ -14,7 +14,7 @@ use crate::identification::data::{Route, prepare};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::identification::steps::{StepData, hold_still, identify};
-use crate::trajectory::excitation::{ExcitationOptions, design};
+use crate::identification::excitation::{ExcitationOptions, design};
 use crate::trajectory::fourier::Fourier;
 use crate::twin::motor::MotorModel;
 use crate::validation::rig::{Progress, Rig};
