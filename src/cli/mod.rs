@@ -239,6 +239,7 @@ impl TwinArgs {
             power_averaging: self.power_averaging,
             noise,
             seed: self.noise_seed,
+            ..SensorSettings::default()
         };
         Ok(Setup {
             robot,

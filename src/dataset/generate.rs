@@ -13,7 +13,7 @@ use crate::model::drive::Drive;
 use crate::trajectory::Trajectory;
 use crate::trajectory::limits::check_limits;
 use crate::twin::sensor::{SensorSettings, measure};
-use crate::twin::{self, RunReport, Twin, TwinConfig};
+use crate::twin::{RunReport, Twin, TwinConfig};
 
 /// Everything a run needs.
 pub struct RunSpec<'a> {
