@@ -5,10 +5,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use powertwin::identification::excitation::{ExcitationOptions, design};
 use powertwin::io::table::to_csv;
 use powertwin::io::write_atomic;
 use powertwin::trajectory::Trajectory;
-use powertwin::identification::excitation::{ExcitationOptions, design};
 use powertwin::trajectory::limits::IRB1200_ACCEL_LIMITS;
 use serde_json::json;
 

@@ -280,7 +280,10 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let model = read_model(&args.model, &robot)?;
     let ds = Dataset::read(&args.data)
         .with_context(|| format!("reading dataset {}", args.data.display()))?;
-    let p = prepare(&ds.log(&args.data.display().to_string())?, args.route.route())?;
+    let p = prepare(
+        &ds.log(&args.data.display().to_string())?,
+        args.route.route(),
+    )?;
     let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3)?;
     let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
         .iter()

@@ -3,10 +3,10 @@
 //! joint positions and powers, known payloads): a [`Log`] cannot reach a twin's truth.
 
 use crate::error::{Error, Result};
-use crate::measurement::{Log, PowerSignal};
-use crate::model::payload::PayloadEvent;
 use crate::identification::fourier_fit::fit_fourier;
 use crate::identification::states::{States, from_fourier, from_smoothing};
+use crate::measurement::{Log, PowerSignal};
+use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::trajectory::sampled::Sampled;
 

@@ -15,9 +15,9 @@ use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::model::payload::PayloadEvent;
 use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
-use crate::model::payload::PayloadEvent;
 
 /// Base-parameter power model of one robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

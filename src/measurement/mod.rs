@@ -156,7 +156,9 @@ impl Log {
             .windows(2)
             .any(|w| w[1].t_s.is_nan() || w[1].t_s < w[0].t_s || !w[0].t_s.is_finite())
         {
-            return Err(bad("payload events must be finite and sorted by time".into()));
+            return Err(bad(
+                "payload events must be finite and sorted by time".into()
+            ));
         }
         Ok(())
     }

@@ -14,8 +14,8 @@ use crate::identification::last_link::reidentify;
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::payload::Payload;
-use crate::trajectory::Trajectory;
 use crate::model::payload::PayloadEvent;
+use crate::trajectory::Trajectory;
 use crate::validation::rig::{Progress, Rig};
 
 /// One row of Table 4.

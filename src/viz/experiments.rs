@@ -10,9 +10,9 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
+use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
-use crate::model::payload::PayloadEvent;
 use crate::validation::reproduce::{Outcome, Plan};
 use crate::validation::sweep::{Cell, Predictor, Sweep};
 

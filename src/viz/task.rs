@@ -10,9 +10,9 @@ use crate::error::{Error, Result};
 use crate::kinematics::fk::tcp_pose;
 use crate::model::Robot;
 use crate::model::payload::Payload;
+use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::trajectory::task::TaskRun;
-use crate::model::payload::PayloadEvent;
 
 /// Radius of the planned TCP path line, m.
 const TCP_PATH_RADIUS_M: f32 = 0.0015;
