@@ -117,3 +117,21 @@ fn bad_robot_files_are_clear_errors_not_panics() {
         "{err}"
     );
 }
+
+#[test]
+fn error_chains_print_each_cause_once() {
+    let missing = tmp("missing.csv");
+    let out = tmp("never-written");
+    let (code, _, err) = powertwin(&[
+        "simulate",
+        "--trajectory",
+        missing.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    let cause = "No such file or directory";
+    assert!(err.contains(cause), "{err}");
+    assert_eq!(err.matches(cause).count(), 1, "{err}");
+    assert!(err.contains(missing.to_str().unwrap()), "{err}");
+}
