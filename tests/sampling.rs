@@ -46,7 +46,12 @@ fn limits_beyond_pi_sample_within_a_full_turn_of_the_limits() {
     let mut b = StateSampler::new(&robot, 3.0, 10.0, 9).unwrap();
     assert_eq!(a.pose(), b.pose());
     // Bounds that are not finite and positive are errors.
-    for (v, a) in [(0.0, 1.0), (1.0, f64::NAN), (f64::INFINITY, 1.0), (1.0, -1.0)] {
+    for (v, a) in [
+        (0.0, 1.0),
+        (1.0, f64::NAN),
+        (f64::INFINITY, 1.0),
+        (1.0, -1.0),
+    ] {
         assert!(StateSampler::new(&robot, v, a, 1).is_err(), "{v} {a}");
     }
 }

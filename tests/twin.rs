@@ -8,9 +8,9 @@ use powertwin::dynamics::rnea::rnea;
 use powertwin::dynamics::{DriveTerms, GRAVITY, Workspace};
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
+use powertwin::model::payload::PayloadEvent;
 use powertwin::trajectory::Trajectory;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings, measure};
-use powertwin::model::payload::PayloadEvent;
 use powertwin::twin::{Twin, TwinConfig};
 
 /// Each joint swings `a (1 - cos w t)` around a bent-arm pose; rest at t = 0.

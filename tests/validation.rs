@@ -12,9 +12,9 @@ use powertwin::identification::states::from_fourier;
 use powertwin::model::Robot;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
+use powertwin::model::payload::PayloadEvent;
 use powertwin::model::payload::attach;
 use powertwin::trajectory::random::{RandomFourierOptions, random_fourier};
-use powertwin::model::payload::PayloadEvent;
 use powertwin::validation::params::{consistency, table};
 
 fn drive(robot: &Robot) -> Drive {

@@ -75,7 +75,10 @@ impl StateSampler {
         let mut windows = Vec::with_capacity(robot.dof());
         let mut velocity = Vec::with_capacity(robot.dof());
         for j in robot.joints() {
-            windows.push(position_window(&j.limits).map_err(|e| e.context(&format!("joint '{}'", j.name)))?);
+            windows.push(
+                position_window(&j.limits)
+                    .map_err(|e| e.context(&format!("joint '{}'", j.name)))?,
+            );
             let v = j.limits.velocity.min(max_velocity);
             if v.is_nan() || v <= 0.0 {
                 return Err(Error::InvalidInput(format!(

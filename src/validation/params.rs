@@ -10,8 +10,8 @@ use crate::error::Result;
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
-use crate::model::sampling::StateSampler;
 use crate::model::drive::Drive;
+use crate::model::sampling::StateSampler;
 
 /// True values below this fraction of the largest true value of the same kind are "zero":
 /// their relative error is not reported.
