@@ -115,7 +115,8 @@ fn nan_is_rejected_and_parameters_without_effect_are_named() {
             samples: 50,
             seed: 3,
         },
-    );
+    )
+    .unwrap();
     // NaN input is an error.
     let mut bad = stack.clone();
     bad[(3, 4)] = f64::NAN;

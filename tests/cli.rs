@@ -117,3 +117,92 @@ fn bad_robot_files_are_clear_errors_not_panics() {
         "{err}"
     );
 }
+
+#[test]
+fn error_chains_print_each_cause_once() {
+    let missing = tmp("missing.csv");
+    let out = tmp("never-written");
+    let (code, _, err) = powertwin(&[
+        "simulate",
+        "--trajectory",
+        missing.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    let cause = "No such file or directory";
+    assert!(err.contains(cause), "{err}");
+    assert_eq!(err.matches(cause).count(), 1, "{err}");
+    assert!(err.contains(missing.to_str().unwrap()), "{err}");
+}
+
+#[test]
+fn overloads_are_refused_and_failed_runs_flagged() {
+    let out = tmp("overload-sweep");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let sweep = |extra: &[&str]| {
+        let mut args = vec![
+            "sweep",
+            "--speeds",
+            "1",
+            "--loads",
+            "1000",
+            "--substeps",
+            "2",
+        ];
+        args.extend_from_slice(extra);
+        powertwin(&args)
+    };
+    // 1000 kg on a 7 kg robot: refused before anything runs.
+    let (code, _, err) = sweep(&["--out", &s(&out)]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("1001.32 kg") && err.contains("rated payload of 7 kg"),
+        "{err}"
+    );
+    assert!(err.contains("--allow-overload") && !out.exists(), "{err}");
+    // Allowed: it runs, and the cell is flagged in the table and in sweep.json.
+    let (code, table, err) = sweep(&["--out", &s(&out), "--allow-overload"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(table.contains("FLAGGED: torque saturated"), "{table}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    let cell = &json["cells"][0];
+    assert_eq!(cell["flagged"], true);
+    assert!(cell["max_tracking_error_rad"].as_f64().unwrap() > 0.01);
+    assert!(!cell["torque_limit_hits"].as_array().unwrap().is_empty());
+    // A drive rated for the load lets the sweep run, but the failed cell makes it exit 1.
+    let drive = tmp("heavy.drive.toml");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/irb1200_7_70.drive.toml"),
+    )
+    .unwrap();
+    std::fs::write(
+        &drive,
+        text.replace("rated_payload_kg = 7.0", "rated_payload_kg = 2000.0"),
+    )
+    .unwrap();
+    let (code, _, err) = sweep(&["--out", &s(&tmp("overload-sweep-2")), "--drive", &s(&drive)]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("1 of 1 sweep cells are flagged") && err.contains("torque saturated"),
+        "{err}"
+    );
+    // simulate checks --payload the same way (before reading the trajectory).
+    let (code, _, err) = powertwin(&[
+        "simulate",
+        "--payload",
+        "load_4kg",
+        "--payload",
+        "load_4kg",
+        "--trajectory",
+        "unused.csv",
+        "--out",
+        &s(&tmp("never")),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("8 kg") && err.contains("rated payload of 7 kg"),
+        "{err}"
+    );
+}

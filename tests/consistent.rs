@@ -46,7 +46,8 @@ fn setup() -> Setup {
             samples: 100,
             seed: 7,
         },
-    );
+    )
+    .unwrap();
     let a = base.base_regressor(&stack);
     let cov = (a.transpose() * &a).try_inverse().unwrap() * 0.25;
     let mut prior = truth.clone();

@@ -136,8 +136,8 @@ fn smoothing_route_differentiates_10_hz_samples() {
 
 mod excitation {
     use super::common;
+    use powertwin::identification::excitation::{ExcitationOptions, design};
     use powertwin::trajectory::Trajectory;
-    use powertwin::trajectory::excitation::{ExcitationOptions, design};
     use powertwin::trajectory::limits::{IRB1200_ACCEL_LIMITS, check_limits};
 
     fn options(joints: Vec<usize>) -> ExcitationOptions {

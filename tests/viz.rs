@@ -212,6 +212,9 @@ fn task_parameters_and_sweep_results_round_trip() {
         predicted_grid_j: predicted,
         error_pct: predicted.map(|p| p - 100.0 - load_kg),
         slowed: Vec::new(),
+        max_tracking_error_rad: 1e-4,
+        torque_limit_hits: Vec::new(),
+        flagged: false,
     };
     let cells = [
         cell(0.1, 0.0, Some(101.0)),

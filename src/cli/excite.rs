@@ -5,10 +5,10 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use powertwin::identification::excitation::{ExcitationOptions, design, rest_pose};
 use powertwin::io::table::to_csv;
 use powertwin::io::write_atomic;
 use powertwin::trajectory::Trajectory;
-use powertwin::trajectory::excitation::{ExcitationOptions, design, rest_pose};
 use powertwin::trajectory::limits::default_accel_limits;
 use serde_json::json;
 

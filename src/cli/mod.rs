@@ -356,6 +356,51 @@ pub fn sweep_name(cell: &Cell) -> String {
     format!("sweep_{}mps_{}kg", cell.speed_m_s, cell.load_kg)
 }
 
+/// `--allow-overload`: what `simulate`, `sweep` and `reproduce` do with a payload above the
+/// robot's rating and with twin runs the drives cannot follow.
+#[derive(Debug, Args)]
+pub struct OverloadArgs {
+    /// Run payloads above the robot's rated payload (rated_payload_kg in the drive file), and
+    /// exit 0 although sweep cells saturate a torque or track worse than 0.01 rad (they are
+    /// still flagged in every output).
+    #[arg(long)]
+    allow_overload: bool,
+}
+
+impl OverloadArgs {
+    /// Refuse a payload of `mass_kg` (kg, tool and load) above `drive`'s rated payload unless
+    /// overloads are allowed; `what` names the payload.
+    pub fn check_payload(&self, mass_kg: f64, drive: &Drive, what: &str) -> Result<()> {
+        if self.allow_overload {
+            return Ok(());
+        }
+        powertwin::model::payload::check_rated(mass_kg, drive.rated_payload_kg(), what)
+            .map_err(|e| anyhow::anyhow!("{e}; pass --allow-overload to run it anyway"))
+    }
+
+    /// Refuse the sweep's flagged cells (torque saturated, tracking lost) unless overloads
+    /// are allowed, listing each with its reason. Run after every output is written.
+    pub fn check_cells(&self, cells: &[Cell]) -> Result<()> {
+        let flagged: Vec<String> = cells
+            .iter()
+            .filter_map(|c| {
+                c.flag_reason()
+                    .map(|why| format!("{} m/s, {} kg: {why}", c.speed_m_s, c.load_kg))
+            })
+            .collect();
+        if flagged.is_empty() || self.allow_overload {
+            return Ok(());
+        }
+        anyhow::bail!(
+            "{} of {} sweep cells are flagged: the twin did not perform the task as planned, so \
+             their energies are not the task's ({}); pass --allow-overload to accept them",
+            flagged.len(),
+            cells.len(),
+            flagged.join("; ")
+        )
+    }
+}
+
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {

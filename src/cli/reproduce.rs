@@ -68,6 +68,8 @@ pub struct ReproduceArgs {
     /// Table format of the datasets.
     #[arg(long, default_value = "parquet")]
     format: Format,
+    #[command(flatten)]
+    overload: crate::cli::OverloadArgs,
     /// Also send the recording that is always saved to <out>/powertwin.rrd elsewhere.
     #[cfg(feature = "viz")]
     #[command(flatten)]
@@ -114,6 +116,13 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let mut plan = Plan::irb1200(args.quick)?;
     if let Some(path) = &args.scenario {
         plan.scenario = Scenario::from_file(path)?;
+    }
+    for &load in &plan.scenario.sweep.loads_kg {
+        args.overload.check_payload(
+            plan.scenario.max_payload_kg(load),
+            &drive,
+            &format!("scenario '{}' at load level {load} kg", plan.scenario.name),
+        )?;
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
@@ -186,6 +195,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         render(&results, &plots).as_bytes(),
     )?;
     emit(&summary(&results, &args.out))?;
+    args.overload.check_cells(&results.sweep.cells)?;
     Ok(ExitCode::SUCCESS)
 }
 

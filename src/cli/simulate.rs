@@ -27,6 +27,8 @@ pub struct SimulateArgs {
     /// Output dataset directory (written atomically; an existing dataset there is replaced).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    #[command(flatten)]
+    overload: super::OverloadArgs,
     #[cfg(feature = "viz")]
     #[command(flatten)]
     viz: super::viz::VizArgs,
@@ -35,6 +37,13 @@ pub struct SimulateArgs {
 /// Run `simulate`.
 pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
+    if let Some(p) = &setup.payload {
+        args.overload.check_payload(
+            p.inertia.mass,
+            &setup.drive,
+            &format!("payload '{}'", p.name),
+        )?;
+    }
     let table = Table::read(&args.trajectory)?;
     #[cfg(feature = "viz")]
     let viz = args.viz.open(None)?;

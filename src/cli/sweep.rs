@@ -13,7 +13,7 @@ use powertwin::validation::sweep::{self, Sweep};
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{TwinArgs, emit, read_model, sweep_name, write_all};
+use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
 
 /// Arguments of `sweep`.
 ///
@@ -44,6 +44,8 @@ pub struct SweepArgs {
     /// Print sweep.json to stdout instead of a table.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    overload: OverloadArgs,
     #[cfg(feature = "viz")]
     #[command(flatten)]
     viz: crate::cli::viz::VizArgs,
@@ -73,6 +75,13 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     }
     if !args.loads.is_empty() {
         scenario.sweep.loads_kg = args.loads.clone();
+    }
+    for &load in &scenario.sweep.loads_kg {
+        args.overload.check_payload(
+            scenario.max_payload_kg(load),
+            &setup.drive,
+            &format!("scenario '{}' at load level {load} kg", scenario.name),
+        )?;
     }
     let model = args
         .model
@@ -138,6 +147,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     } else {
         table(&result)
     })?;
+    args.overload.check_cells(&result.cells)?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -146,12 +156,12 @@ fn table(result: &Sweep) -> String {
     let mut o = String::new();
     outln!(
         o,
-        "speed_m_s  load_kg  cycle_time_s  simulated_J  grid_J  predicted_J  error_pct  slowed_segments"
+        "speed_m_s  load_kg  cycle_time_s  simulated_J  grid_J  predicted_J  error_pct  slowed_segments  flag"
     );
     for c in &result.cells {
         outln!(
             o,
-            "{:9}  {:7}  {:12.3}  {:11.2}  {:6.1}  {:>11}  {:>9}  {}",
+            "{:9}  {:7}  {:12.3}  {:11.2}  {:6.1}  {:>11}  {:>9}  {:15}  {}",
             c.speed_m_s,
             c.load_kg,
             c.cycle_time_s,
@@ -159,7 +169,9 @@ fn table(result: &Sweep) -> String {
             c.simulated_grid_j,
             c.predicted_j.map_or("-".into(), |e| format!("{e:.2}")),
             c.error_pct.map_or("-".into(), |e| format!("{e:+.3}")),
-            c.slowed.len()
+            c.slowed.len(),
+            c.flag_reason()
+                .map_or("-".into(), |why| format!("FLAGGED: {why}"))
         );
     }
     for opt in &result.optima {

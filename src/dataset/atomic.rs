@@ -1,7 +1,7 @@
 //! Writing a whole directory atomically.
 //!
-//! The files go into a fresh temporary sibling `.{name}.tmp-{pid}`, which is renamed to the
-//! target once complete. An existing target is first renamed aside to `.{name}.old-{pid}`,
+//! The files go into a fresh temporary sibling `.{name}.XXXXXX.tmp` (random name, from
+//! [`tempfile`]; removed on failure), which is renamed to the target once complete. An existing target is first renamed aside to `.{name}.old-{pid}`,
 //! then the new directory is renamed in and the old one removed. At no time does the target
 //! path hold a partly written directory: a crash leaves either the old dataset, the new one,
 //! or (between the two renames) none, with both complete copies in the hidden siblings.
@@ -23,29 +23,28 @@ pub(crate) const MARKER: &str = "meta.json";
 pub(crate) fn write_dir(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let (parent, name) = split(dir)?;
     check_replaceable(dir)?;
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
     let old = parent.join(format!(".{name}.old-{}", std::process::id()));
     // A leftover of a crashed run that had our process id.
-    remove_if_present(&tmp)?;
     remove_if_present(&old)?;
-    std::fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let filled = fill(&tmp).and_then(|()| sync_dir(&tmp).map_err(|e| Error::io(&tmp, e)));
-    if let Err(e) = filled {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(e);
-    }
+    // Removed when dropped, i.e. on every early return below.
+    let prefix = format!(".{name}.");
+    let tmp_dir = crate::io::sibling_builder(&prefix, ".tmp", true)
+        .tempdir_in(&parent)
+        .map_err(|e| Error::io(&parent, e))?;
+    let tmp = tmp_dir.path().to_path_buf();
+    fill(&tmp).and_then(|()| sync_dir(&tmp).map_err(|e| Error::io(&tmp, e)))?;
     let replaced = dir.exists();
-    if replaced && let Err(e) = std::fs::rename(dir, &old) {
-        let _ = std::fs::remove_dir_all(&tmp);
-        return Err(Error::io(dir, e));
+    if replaced {
+        std::fs::rename(dir, &old).map_err(|e| Error::io(dir, e))?;
     }
     if let Err(e) = std::fs::rename(&tmp, dir) {
         if replaced {
             let _ = std::fs::rename(&old, dir);
         }
-        let _ = std::fs::remove_dir_all(&tmp);
         return Err(Error::io(dir, e));
     }
+    // The directory now lives at `dir`: nothing left to clean up.
+    let _ = tmp_dir.keep();
     let synced = sync_dir(&parent).map_err(|e| Error::io(&parent, e));
     if replaced {
         // The new dataset is in place; a copy of the old one that cannot be removed is only

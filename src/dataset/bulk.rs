@@ -25,10 +25,10 @@ use crate::dataset::Dataset;
 use crate::dataset::generate::{RunSpec, simulate};
 use crate::dataset::meta::Urdf;
 use crate::error::{Error, Result};
+use crate::model::Robot;
 use crate::model::drive::{Drive, JointDrive};
 use crate::model::payload::Payload;
 use crate::model::payload::PayloadEvent;
-use crate::model::{RigidInertia, Robot};
 use crate::trajectory::Trajectory;
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
@@ -102,17 +102,6 @@ fn splitmix64(mut x: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// A steel cube of `mass` kg with its centre at `at` (flange frame, m).
-fn steel_cube(mass: f64, at: Vector3<f64>) -> Payload {
-    let side = (mass / 7850.0).cbrt();
-    let i = mass * side * side / 6.0;
-    Payload {
-        name: format!("steel cube {mass:.3} kg"),
-        inertia: RigidInertia::new(mass, at, [i, i, i, 0.0, 0.0, 0.0]),
-        tcp: None,
-    }
-}
-
 /// Generate item `index` of the global set.
 pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
     let item_seed = splitmix64(spec.seed ^ splitmix64(index as u64));
@@ -135,10 +124,9 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         1 => Some(spec.tool.clone()),
         _ => {
             let at = spec.tool.tcp.unwrap_or_else(Vector3::zeros);
-            Some(
-                spec.tool
-                    .combined(&steel_cube(rng.random_range(0.5..4.0), at)),
-            )
+            let mass = rng.random_range(0.5..4.0);
+            let cube = Payload::cube(&format!("steel cube {mass:.3} kg"), mass, at)?;
+            Some(spec.tool.combined(&cube))
         }
     };
     let joints: Vec<JointDrive> = spec

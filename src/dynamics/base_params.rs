@@ -14,14 +14,13 @@
 //! of the parameters its step-by-step procedure identifies, each scaled by 1/eta.
 
 use nalgebra::DMatrix;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::model::sampling::StateSampler;
 
 /// Relative tolerance for rank decisions on the column-normalised stacked regressor.
 const RANK_TOL: f64 = 1e-8;
@@ -68,28 +67,33 @@ pub struct BaseParams {
     beta: DMatrix<f64>,
 }
 
-/// Stack `W` (n rows per state) over random states within the joint limits: q uniform in the
-/// limits (capped at ±pi), dq uniform within ±min(limit, 3 rad/s), ddq uniform in ±10 rad/s^2.
-pub fn random_stack(robot: &Robot, layout: &ParamLayout, opts: &SamplingOptions) -> DMatrix<f64> {
+/// Largest joint speed of the random states, rad/s (and at most each joint's limit).
+const SAMPLE_VELOCITY: f64 = 3.0;
+/// Largest joint acceleration of the random states, rad/s^2.
+const SAMPLE_ACCELERATION: f64 = 10.0;
+
+/// Stack `W` (n rows per state) over random states within the joint limits
+/// ([`StateSampler`]): q uniform in the limits (a 2 pi window at most), dq uniform within
+/// ±min(limit, 3 rad/s), ddq uniform in ±10 rad/s^2.
+///
+/// Errors ([`Error::InvalidInput`]): a joint's position range is empty.
+pub fn random_stack(
+    robot: &Robot,
+    layout: &ParamLayout,
+    opts: &SamplingOptions,
+) -> Result<DMatrix<f64>> {
     let n = robot.dof();
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let mut sampler = StateSampler::new(robot, SAMPLE_VELOCITY, SAMPLE_ACCELERATION, opts.seed)?;
     let mut ws = Workspace::new(robot);
     let mut w = DMatrix::zeros(n, layout.len());
     let mut stack = DMatrix::zeros(n * opts.samples, layout.len());
     let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for s in 0..opts.samples {
-        for (i, j) in robot.joints().iter().enumerate() {
-            let lo = j.limits.lower.max(-std::f64::consts::PI);
-            let hi = j.limits.upper.min(std::f64::consts::PI);
-            let v = j.limits.velocity.min(3.0);
-            q[i] = rng.random_range(lo..hi);
-            dq[i] = rng.random_range(-v..v);
-            ddq[i] = rng.random_range(-10.0..10.0);
-        }
+        sampler.state(&mut q, &mut dq, &mut ddq);
         regressor(robot, &mut ws, layout, &q, &dq, &ddq, &mut w);
         stack.view_mut((s * n, 0), (n, layout.len())).copy_from(&w);
     }
-    stack
+    Ok(stack)
 }
 
 impl BaseParams {
@@ -107,7 +111,7 @@ impl BaseParams {
                 layout.len()
             )));
         }
-        Self::from_stack(&random_stack(robot, &layout, opts), layout)
+        Self::from_stack(&random_stack(robot, &layout, opts)?, layout)
     }
 
     /// Base parameters from an already stacked regressor (any rows, `layout.len()` columns).

@@ -1,9 +1,11 @@
 //! Parameter identification from motor power (Liu et al. 2018, eqs. 9–13), and the signal
-//! processing that turns a logged stream into regressor inputs.
+//! processing that turns a logged stream into regressor inputs. [`excitation`] designs the
+//! trajectories that make the identified parameters well conditioned (paper eqs. 7–8).
 
 pub mod consistent;
 pub mod data;
 pub mod energy;
+pub mod excitation;
 pub mod fit;
 pub mod fourier_fit;
 pub mod last_link;

@@ -5,6 +5,7 @@
 //! other columns are ignored. Rows are numbered 1-based with the header as row 1, as a
 //! spreadsheet shows them.
 
+use std::fmt::Write as _;
 use std::io::{Read, Write};
 use std::path::Path;
 
@@ -135,9 +136,10 @@ pub fn to_csv(headers: &[String], columns: &[Vec<f64>]) -> String {
     String::from_utf8(out).expect("the headers are UTF-8 and the numbers ASCII")
 }
 
-/// Write columns of equal length as CSV with the given headers, each value in Rust's
-/// shortest representation that parses back to the same `f64` (`{}`), row by row without
-/// allocating. `out` should be buffered.
+/// Write columns of equal length as CSV (`csv::Writer`: a header row, then one record per
+/// row; a header with a comma or quote is quoted) with the given headers, each value in
+/// Rust's shortest representation that parses back to the same `f64` (`{}`). `out` should be
+/// buffered.
 ///
 /// # Panics
 /// If a column is shorter than the first one.
@@ -146,18 +148,19 @@ pub fn write_csv(
     headers: &[String],
     columns: &[&[f64]],
 ) -> std::io::Result<()> {
-    writeln!(out, "{}", headers.join(","))?;
+    let mut w = csv::WriterBuilder::new().from_writer(out);
+    w.write_record(headers)?;
     let rows = columns.first().map_or(0, |c| c.len());
+    let mut cell = String::with_capacity(32);
     for r in 0..rows {
-        for (c, column) in columns.iter().enumerate() {
-            if c > 0 {
-                out.write_all(b",")?;
-            }
-            write!(out, "{}", column[r])?;
+        for column in columns {
+            cell.clear();
+            write!(cell, "{}", column[r]).expect("writing to a String cannot fail");
+            w.write_field(&cell)?;
         }
-        out.write_all(b"\n")?;
+        w.write_record(None::<&[u8]>)?;
     }
-    Ok(())
+    w.flush()
 }
 
 #[cfg(test)]

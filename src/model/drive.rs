@@ -13,6 +13,7 @@
 //! # File format (TOML)
 //! ```toml
 //! robot = "abb_irb1200_7_70"          # optional; must equal the robot name when present
+//! rated_payload_kg = 7.0              # optional; the maker's rated payload (tool + load)
 //! [[joint]]                           # one entry per robot joint, any order
 //! name = "joint_1"
 //! rotor_inertia_kgm2 = 0.36
@@ -121,6 +122,7 @@ impl JointDrive {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Drive {
     joints: Vec<JointDrive>,
+    rated_payload_kg: Option<f64>,
 }
 
 /// The TOML file as written.
@@ -128,6 +130,7 @@ pub struct Drive {
 #[serde(deny_unknown_fields)]
 struct DriveFile {
     robot: Option<String>,
+    rated_payload_kg: Option<f64>,
     joint: Vec<JointEntry>,
 }
 
@@ -181,6 +184,13 @@ impl Drive {
             )));
         }
 
+        if let Some(m) = file.rated_payload_kg
+            && !(m.is_finite() && m > 0.0)
+        {
+            return Err(err(format!(
+                "rated_payload_kg = {m}; it must be finite and positive"
+            )));
+        }
         let index: HashMap<&str, usize> = robot
             .joints()
             .iter()
@@ -255,7 +265,10 @@ impl Drive {
                 Ok(drive)
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(Drive { joints })
+        Ok(Drive {
+            joints,
+            rated_payload_kg: file.rated_payload_kg,
+        })
     }
 
     /// Read and parse a drive file for `robot` (see [`Drive::from_toml_str`]); I/O failures
@@ -279,13 +292,17 @@ impl Drive {
             check_joint(d)
                 .map_err(|m| Error::InvalidInput(format!("drive of joint '{}': {m}", j.name)))?;
         }
-        Ok(Drive { joints })
+        Ok(Drive {
+            joints,
+            rated_payload_kg: None,
+        })
     }
 
     /// Ideal drives: no friction, no rotor inertia, efficiency 1, no copper or standby loss.
     pub fn ideal(robot: &Robot) -> Drive {
         Drive {
             joints: vec![JointDrive::lossless(Friction::default()); robot.dof()],
+            rated_payload_kg: None,
         }
     }
 
@@ -298,6 +315,7 @@ impl Drive {
                 .iter()
                 .map(|j| JointDrive::lossless(j.friction))
                 .collect(),
+            rated_payload_kg: None,
         }
     }
 
@@ -313,12 +331,20 @@ impl Drive {
                     ..*j
                 })
                 .collect(),
+            rated_payload_kg: self.rated_payload_kg,
         }
     }
 
     /// Drive data per joint, in robot joint order.
     pub fn joints(&self) -> &[JointDrive] {
         &self.joints
+    }
+
+    /// The robot's rated payload (tool and load at the flange), kg, when the drive file
+    /// gives one (`rated_payload_kg`). Heavier payloads are refused unless the caller allows
+    /// an overload ([`crate::model::payload::check_rated`]).
+    pub fn rated_payload_kg(&self) -> Option<f64> {
+        self.rated_payload_kg
     }
 
     /// The drives' nominal efficiency: the mean of the joints' efficiencies. What the

@@ -19,6 +19,7 @@ pub mod export;
 pub mod frames;
 pub mod inertia;
 pub mod payload;
+pub mod sampling;
 pub mod urdf;
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};

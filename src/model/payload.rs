@@ -52,6 +52,26 @@ pub struct PayloadEvent {
     pub payload: Option<Payload>,
 }
 
+/// Refuse a payload above the robot's rated payload: `mass_kg` (tool and load at the flange,
+/// kg) against `rated_kg` (kg, from the drive file; `None` = no rating, nothing to check).
+/// `what` names the payload in the message.
+///
+/// Errors ([`Error::InvalidInput`]): `mass_kg` is not finite, or exceeds `rated_kg`.
+pub fn check_rated(mass_kg: f64, rated_kg: Option<f64>, what: &str) -> Result<()> {
+    if !mass_kg.is_finite() {
+        return Err(Error::InvalidInput(format!(
+            "{what}: payload mass {mass_kg} kg must be finite"
+        )));
+    }
+    match rated_kg {
+        Some(rated) if mass_kg > rated => Err(Error::InvalidInput(format!(
+            "{what}: payload of {mass_kg} kg (tool and load) exceeds the robot's rated payload \
+             of {rated} kg (rated_payload_kg in the drive file)"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// The TOML file as written.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]

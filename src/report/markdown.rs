@@ -341,12 +341,13 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             "predicted J",
             "error %",
             "slowed segments",
+            "flag",
         ],
     );
     for c in &r.sweep.cells {
         let _ = writeln!(
             w,
-            "| {} | {} | {:.2} | {:.1} | {:.1} | {} | {} | {} |",
+            "| {} | {} | {:.2} | {:.1} | {:.1} | {} | {} | {} | {} |",
             c.speed_m_s,
             c.load_kg,
             c.cycle_time_s,
@@ -354,7 +355,9 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             c.simulated_grid_j,
             opt(c.predicted_j, |x| format!("{x:.1}")),
             opt(c.error_pct, |x| format!("{x:+.3}")),
-            c.slowed.len()
+            c.slowed.len(),
+            c.flag_reason()
+                .map_or("-".into(), |why| format!("**flagged**: {why}"))
         );
     }
     let _ = writeln!(w);

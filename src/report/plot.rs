@@ -1,10 +1,11 @@
 //! Line, scatter and grouped bar charts written as SVG and PNG, without a plotting crate.
 //!
 //! A [`Chart`] is laid out once into pixel-space primitives (lines, rectangles, circles,
-//! text); [`Chart::to_svg`] writes them as SVG elements and [`Chart::to_png`] rasterises them
-//! itself (anti-aliased by exact pixel coverage, text in the public-domain `font8x8` bitmap
-//! font) and encodes the image with the `png` crate. All lengths are pixels (px); data
-//! coordinates are in the units the axis labels name, e.g. "TCP speed (m/s)".
+//! text); [`Chart::to_svg`] writes them as SVG elements and [`Chart::to_png`] renders that
+//! same SVG with `resvg` (anti-aliased, text shaped in DejaVu Sans, embedded from
+//! `assets/fonts` so that no system font is needed) and encodes the image with the `png`
+//! crate. All lengths are pixels (px); data coordinates are in the units the axis labels
+//! name, e.g. "TCP speed (m/s)".
 //!
 //! Series take the Okabe–Ito colours (colour-blind friendly) in order; ticks fall on 1-2-5
 //! steps. Degenerate input never panics: a non-finite coordinate, a chart without any point,
@@ -15,7 +16,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use font8x8::legacy::{BASIC_LEGACY, GREEK_LEGACY, LATIN_LEGACY};
+use std::sync::{Arc, OnceLock};
+
+use resvg::{tiny_skia, usvg};
 
 use crate::error::{Error, Result};
 use crate::io::write_atomic;
@@ -37,6 +40,12 @@ const AXIS: Rgba = [0x55, 0x55, 0x55, 255];
 const GRID: Rgba = [0xE4, 0xE4, 0xE4, 255];
 const WHITE: Rgba = [255, 255, 255, 255];
 const HALO: Rgba = [255, 255, 255, 215];
+/// The chart font: a subset of DejaVu Sans 2.37 (Basic Latin, Latin-1, Greek, punctuation,
+/// super/subscripts, arrows, some math; 33 kB). Bitstream Vera licence with public-domain
+/// DejaVu changes: assets/fonts/LICENSE-DejaVu.txt.
+const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
+/// Its family name, first in the SVG's font-family list.
+const FONT_FAMILY: &str = "DejaVu Sans";
 /// Smallest and largest accepted image sides, px.
 const MIN_SIDE: u32 = 200;
 const MAX_SIDE: u32 = 4096;
@@ -156,9 +165,8 @@ enum Prim {
     Path(Vec<(f64, f64)>, Rgba, f64, Option<(f64, f64)>),
     /// Circle: centre, radius, fill and stroke (colour, width).
     Circle((f64, f64), f64, Option<Rgba>, Option<(Rgba, f64)>),
-    /// Dark text: anchor point (the text is centred vertically on it), string, scale of the
-    /// 8 px bitmap cell (SVG: 12.5 px font per unit), alignment, and whether it is vertical
-    /// (reading bottom to top).
+    /// Dark text: anchor point (the text is centred vertically on it), string, scale (12.5 px
+    /// font per unit), alignment, and whether it is vertical (reading bottom to top).
     Text((f64, f64), String, f64, Anchor, bool),
 }
 
@@ -193,7 +201,8 @@ impl Sheet {
     }
 }
 
-/// Width of `text` at `scale`, px (8 px per character and scale unit).
+/// Width of `text` at `scale` for the layout, px: 8 px per character and scale unit, a little
+/// more than DejaVu Sans's mean advance at 12.5 px, so labels never overlap.
 fn text_w(text: &str, scale: f64) -> f64 {
     text.chars().count() as f64 * 8.0 * scale
 }
@@ -382,7 +391,7 @@ impl Chart {
         let mut s = format!(
             "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" \
              width=\"{width}\" height=\"{height}\" viewBox=\"0 0 {width} {height}\" \
-             font-family=\"DejaVu Sans, Helvetica, Arial, sans-serif\">\n\
+             font-family=\"{FONT_FAMILY}, Helvetica, Arial, sans-serif\">\n\
              <rect width=\"{width}\" height=\"{height}\" fill=\"#ffffff\"/>\n"
         );
         for p in &prims {
@@ -392,20 +401,33 @@ impl Chart {
         Ok(s)
     }
 
-    /// The chart as an 8-bit RGB PNG of `width` x `height` px.
+    /// The chart as an 8-bit RGB PNG of `width` x `height` px: [`Chart::to_svg`] rendered by
+    /// `resvg` with the embedded DejaVu Sans.
     pub fn to_png(&self, width: u32, height: u32) -> Result<Vec<u8>> {
-        let prims = self.layout(width, height)?;
-        let mut r = Raster::new(width as usize, height as usize);
-        for p in &prims {
-            r.draw(p);
-        }
+        let svg = self.to_svg(width, height)?;
+        let render_err = |what: &str| self.invalid(&format!("PNG rendering failed: {what}"));
+        let tree =
+            usvg::Tree::from_str(&svg, svg_options()).map_err(|e| render_err(&e.to_string()))?;
+        let mut pixmap =
+            tiny_skia::Pixmap::new(width, height).ok_or_else(|| render_err("empty image"))?;
+        resvg::render(
+            &tree,
+            tiny_skia::Transform::identity(),
+            &mut pixmap.as_mut(),
+        );
+        // The SVG paints an opaque white background first, so premultiplied RGBA is plain RGB.
+        let rgb: Vec<u8> = pixmap
+            .data()
+            .chunks_exact(4)
+            .flat_map(|px| [px[0], px[1], px[2]])
+            .collect();
         let mut out = Vec::new();
         let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         let err = |e: png::EncodingError| Error::InvalidInput(format!("PNG encoding failed: {e}"));
         let mut w = enc.write_header().map_err(err)?;
-        w.write_image_data(&r.rgb).map_err(err)?;
+        w.write_image_data(&rgb).map_err(err)?;
         w.finish().map_err(err)?;
         Ok(out)
     }
@@ -764,138 +786,16 @@ fn svg_prim(s: &mut String, p: &Prim) {
     };
 }
 
-/// The 8x8 glyph of `c` (row bytes, bit 0 leftmost); unknown characters draw as '?'.
-fn glyph(c: char) -> [u8; 8] {
-    let u = c as usize;
-    match u {
-        0x20..=0x7E => BASIC_LEGACY[u],
-        0xA0..=0xFF => LATIN_LEGACY[u - 0xA0],
-        0x390..=0x3C9 => GREEK_LEGACY[u - 0x390],
-        0x2010..=0x2015 | 0x2212 => BASIC_LEGACY[b'-' as usize],
-        _ => BASIC_LEGACY[b'?' as usize],
-    }
-}
-
-/// Pixel index range covering [a, b) clipped to `0..n`.
-fn span(a: f64, b: f64, n: usize) -> std::ops::Range<usize> {
-    (a.floor().max(0.0) as usize).min(n)..(b.ceil().max(0.0) as usize).min(n)
-}
-
-/// An RGB image on white, drawn by exact pixel coverage (anti-aliased); `mask` collects one
-/// path's coverage so that the overlapping ends of its segments blend once.
-struct Raster {
-    w: usize,
-    h: usize,
-    rgb: Vec<u8>,
-    mask: Vec<f32>,
-}
-
-impl Raster {
-    fn new(w: usize, h: usize) -> Self {
-        let (rgb, mask) = (vec![255; w * h * 3], vec![0.0; w * h]);
-        Raster { w, h, rgb, mask }
-    }
-
-    /// Blend `c` into pixel `i` with coverage `cov` (clamped to 0..1).
-    fn blend(&mut self, i: usize, c: Rgba, cov: f64) {
-        let a = cov.clamp(0.0, 1.0) * c[3] as f64 / 255.0;
-        for (p, &c) in self.rgb[3 * i..3 * i + 3].iter_mut().zip(&c) {
-            *p = (*p as f64 * (1.0 - a) + c as f64 * a).round() as u8;
+/// SVG parsing options with the embedded font as the only font (built once).
+fn svg_options() -> &'static usvg::Options<'static> {
+    static OPTIONS: OnceLock<usvg::Options<'static>> = OnceLock::new();
+    OPTIONS.get_or_init(|| {
+        let mut db = usvg::fontdb::Database::new();
+        db.load_font_data(FONT.to_vec());
+        usvg::Options {
+            font_family: FONT_FAMILY.to_string(),
+            fontdb: Arc::new(db),
+            ..usvg::Options::default()
         }
-    }
-
-    fn draw(&mut self, p: &Prim) {
-        match p {
-            &Prim::Rect([x, y, w, h], fill) => {
-                let ov = |p: usize, a: f64, b: f64| {
-                    ((p as f64 + 1.0).min(b) - (p as f64).max(a)).clamp(0.0, 1.0)
-                };
-                for py in span(y, y + h, self.h) {
-                    for px in span(x, x + w, self.w) {
-                        self.blend(py * self.w + px, fill, ov(px, x, x + w) * ov(py, y, y + h));
-                    }
-                }
-            }
-            Prim::Path(pts, color, width, dash) => self.path(pts, *color, *width, *dash),
-            &Prim::Circle((cx, cy), r, fill, stroke) => {
-                let e = r + stroke.map_or(0.0, |s| s.1) + 1.0;
-                for py in span(cy - e, cy + e, self.h) {
-                    for px in span(cx - e, cx + e, self.w) {
-                        let d = (px as f64 + 0.5 - cx).hypot(py as f64 + 0.5 - cy);
-                        let i = py * self.w + px;
-                        if let Some(c) = fill {
-                            self.blend(i, c, r + 0.5 - d);
-                        }
-                        if let Some((c, sw)) = stroke {
-                            self.blend(i, c, sw / 2.0 + 0.5 - (d - r).abs());
-                        }
-                    }
-                }
-            }
-            Prim::Text((x, y), text, s, anchor, vertical) => {
-                let (x, y, s, len) = (x.round(), y.round(), *s, text_w(text, *s));
-                let a0 = match anchor {
-                    Anchor::Start => 0.0,
-                    Anchor::Middle => (-len / 2.0).round(),
-                    Anchor::End => -len,
-                };
-                for (ci, ch) in text.chars().enumerate() {
-                    for (gy, row) in glyph(ch).iter().enumerate() {
-                        for gx in (0..8).filter(|b| row & (1 << b) != 0) {
-                            // Offsets along (u) and across (v) the text from the anchor, px.
-                            let u = a0 + (ci * 8 + gx) as f64 * s;
-                            let v = (gy as f64 - 4.0) * s;
-                            let r = if *vertical {
-                                [x + v, y - u - s, s, s]
-                            } else {
-                                [x + u, y + v, s, s]
-                            };
-                            self.draw(&Prim::Rect(r, INK));
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Stroke a polyline `width` px wide, optionally dashed (on, off px), with round joins.
-    fn path(&mut self, pts: &[(f64, f64)], c: Rgba, width: f64, dash: Option<(f64, f64)>) {
-        let hw = width / 2.0;
-        let (mut all_x, mut all_y) = (self.w..0, self.h..0);
-        let mut along = 0.0;
-        for seg in pts.windows(2) {
-            let ((ax, ay), (bx, by)) = (seg[0], seg[1]);
-            let (dx, dy) = (bx - ax, by - ay);
-            let (len2, len) = (dx * dx + dy * dy, dx.hypot(dy));
-            let xs = span(ax.min(bx) - hw - 1.0, ax.max(bx) + hw + 1.0, self.w);
-            let ys = span(ay.min(by) - hw - 1.0, ay.max(by) + hw + 1.0, self.h);
-            all_x = all_x.start.min(xs.start)..all_x.end.max(xs.end);
-            all_y = all_y.start.min(ys.start)..all_y.end.max(ys.end);
-            for py in ys {
-                for px in xs.clone() {
-                    let (qx, qy) = (px as f64 + 0.5 - ax, py as f64 + 0.5 - ay);
-                    let t = if len2 > 0.0 {
-                        ((qx * dx + qy * dy) / len2).clamp(0.0, 1.0)
-                    } else {
-                        0.0
-                    };
-                    let cov = (hw + 0.5 - (qx - t * dx).hypot(qy - t * dy)) as f32;
-                    let on = dash.is_none_or(|(on, off)| (along + t * len) % (on + off) < on);
-                    let m = &mut self.mask[py * self.w + px];
-                    if on && cov > *m {
-                        *m = cov.min(1.0);
-                    }
-                }
-            }
-            along += len;
-        }
-        for py in all_y {
-            for px in all_x.clone() {
-                let m = std::mem::take(&mut self.mask[py * self.w + px]);
-                if m > 0.0 {
-                    self.blend(py * self.w + px, c, m as f64);
-                }
-            }
-        }
-    }
+    })
 }

@@ -8,7 +8,6 @@
 //! ([`task`]).
 //! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
 
-pub mod excitation;
 pub mod fourier;
 pub mod limits;
 pub mod linear_move;

@@ -192,6 +192,17 @@ impl Scenario {
         Isometry3::from_parts(Translation3::from(self.tcp_m), UnitQuaternion::identity())
     }
 
+    /// The heaviest payload (tool and load) the flange carries at load level `load_kg` (kg):
+    /// the tool's mass plus the heaviest load's share of `load_kg` (loads never overlap), kg.
+    pub fn max_payload_kg(&self, load_kg: f64) -> f64 {
+        let heaviest = self
+            .loads
+            .iter()
+            .map(|l| l.mass_fraction)
+            .fold(0.0, f64::max);
+        self.tool.as_ref().map_or(0.0, |t| t.inertia.mass) + heaviest * load_kg
+    }
+
     /// Plan the task on `robot` (bare, without payload) at the commanded TCP speed
     /// `speed_m_s` (m/s) and load level `load_kg` (kg, see the [module docs](self)).
     ///

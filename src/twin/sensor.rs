@@ -17,6 +17,7 @@
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -121,11 +122,9 @@ impl Default for SensorSettings {
     }
 }
 
-/// Standard normal sample (Box–Muller).
+/// Standard normal sample (`rand_distr`'s ziggurat).
 fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>();
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    rng.sample(StandardNormal)
 }
 
 impl SensorSettings {

@@ -2,8 +2,6 @@
 //! check of an identified model.
 
 use nalgebra::{DMatrix, SymmetricEigen};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::dynamics::regressor::regressor;
@@ -13,6 +11,7 @@ use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
 use crate::model::drive::Drive;
+use crate::model::sampling::StateSampler;
 
 /// True values below this fraction of the largest true value of the same kind are "zero":
 /// their relative error is not reported.
@@ -113,7 +112,7 @@ pub fn consistency(
     } else {
         1.0
     };
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut sampler = StateSampler::new(robot, 1.0, 1.0, seed)?;
     let mut ws = Workspace::new(robot);
     let mut w = DMatrix::zeros(n, model.layout.len());
     let zero = vec![0.0; n];
@@ -132,15 +131,7 @@ pub fn consistency(
     };
     let mut min_eigenvalue = f64::INFINITY;
     for _ in 0..poses {
-        let q: Vec<f64> = robot
-            .joints()
-            .iter()
-            .map(|j| {
-                let lo = j.limits.lower.max(-std::f64::consts::PI);
-                let hi = j.limits.upper.min(std::f64::consts::PI);
-                rng.random_range(lo..=hi)
-            })
-            .collect();
+        let q = sampler.pose();
         let gravity = tau(&q, &zero);
         let mut m = DMatrix::zeros(n, n);
         for j in 0..n {

@@ -8,8 +8,8 @@ use crate::model::Robot;
 use crate::model::drive::Drive;
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
-use crate::twin::TwinConfig;
 use crate::twin::sensor::SensorSettings;
+use crate::twin::{RunReport, TwinConfig};
 
 /// Robot, true drives, twin and logger settings of an experiment.
 #[derive(Debug, Clone)]
@@ -37,6 +37,18 @@ impl Rig<'_> {
         run: u64,
         description: serde_json::Value,
     ) -> Result<Dataset> {
+        Ok(self.run_reported(traj, events, run, description)?.0)
+    }
+
+    /// [`Rig::run`], also returning the twin's [`RunReport`] (tracking error, torque
+    /// saturation).
+    pub fn run_reported(
+        &self,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        run: u64,
+        description: serde_json::Value,
+    ) -> Result<(Dataset, RunReport)> {
         let spec = RunSpec {
             robot: self.robot,
             urdf: self.urdf.clone(),
@@ -51,7 +63,7 @@ impl Rig<'_> {
             trajectory_description: description,
             trajectory_seed: None,
         };
-        Ok(simulate(&spec)?.0)
+        simulate(&spec)
     }
 }
 

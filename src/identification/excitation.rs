@@ -28,6 +28,7 @@ use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::kinematics::fk::link_poses;
 use crate::model::Robot;
+use crate::model::sampling::StateSampler;
 use crate::trajectory::Trajectory;
 use crate::trajectory::fourier::Fourier;
 use crate::trajectory::limits::check_limits;
@@ -263,6 +264,12 @@ impl Problem<'_> {
     }
 }
 
+/// Largest joint speed of the identifiability scan's random states, rad/s (and at most each
+/// joint's limit).
+const SCAN_VELOCITY: f64 = 2.0;
+/// Largest joint acceleration of the identifiability scan's random states, rad/s^2.
+const SCAN_ACCELERATION: f64 = 5.0;
+
 /// The base columns of `layout` that motions of `joints` alone reveal through `observation`:
 /// greedy QR in link order on random states with the other joints at `rest_pose`.
 pub fn identifiable_columns(
@@ -274,7 +281,7 @@ pub fn identifiable_columns(
     seed: u64,
 ) -> Result<Vec<usize>> {
     let n = robot.dof();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut sampler = StateSampler::new(robot, SCAN_VELOCITY, SCAN_ACCELERATION, seed)?;
     let mut ws = Workspace::new(robot);
     let mut w = DMatrix::zeros(n, layout.len());
     let samples = 400;
@@ -287,12 +294,7 @@ pub fn identifiable_columns(
     let (mut q, mut dq, mut ddq) = (rest_pose.to_vec(), vec![0.0; n], vec![0.0; n]);
     for s in 0..samples {
         for &j in joints {
-            let l = &robot.joints()[j].limits;
-            q[j] = rng.random_range(
-                l.lower.max(-std::f64::consts::PI)..l.upper.min(std::f64::consts::PI),
-            );
-            dq[j] = rng.random_range(-2.0..2.0);
-            ddq[j] = rng.random_range(-5.0..5.0);
+            sampler.joint(j, &mut q, &mut dq, &mut ddq);
         }
         regressor(robot, &mut ws, &layout, &q, &dq, &ddq, &mut w);
         for c in 0..layout.len() {
