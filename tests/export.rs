@@ -138,7 +138,7 @@ fn exported_drive_file_reads_back() {
     let back = Drive::from_toml_str(&text, "exported", &robot).unwrap();
     // An identified drive has the model's structure: the twin's unmodelled effects are not
     // written (nothing identified them).
-    assert_eq!(back, drive.exact());
+    assert_eq!(back.joints(), drive.exact().joints());
 }
 
 /// `identify --export-urdf --export-drive` writes files that load as a robot and its drives

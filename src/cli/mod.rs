@@ -361,7 +361,7 @@ pub fn sweep_name(cell: &Cell) -> String {
 #[derive(Debug, Args)]
 pub struct OverloadArgs {
     /// Run payloads above the robot's rated payload (rated_payload_kg in the drive file), and
-    /// exit 0 although sweep cells saturate a torque or track worse than 0.01 rad (they are
+    /// exit 0 although sweep cells saturate a torque or track worse than 0.05 rad (they are
     /// still flagged in every output).
     #[arg(long)]
     allow_overload: bool,

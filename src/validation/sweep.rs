@@ -18,11 +18,14 @@ use crate::validation::rig::{Progress, Rig};
 /// this ratio of speeds (golden-section search in log speed).
 const SEARCH_RATIO: f64 = 1.02;
 
-/// Largest tracking error, rad, at which a twin run still counts as the planned task: 0.01 rad
-/// is about 7 mm at the IRB 1200's 0.7 m reach and about ten times the largest error of the
-/// built-in sweep (1.05e-3 rad, 0.05-1 m/s, 0-4 kg, 3 substeps), so only a run the drives
-/// cannot follow (saturated torques, a payload far above the rating) exceeds it.
-pub const TRACKING_ERROR_BOUND_RAD: f64 = 0.01;
+/// Largest tracking error, rad, at which a twin run still counts as the planned task. The
+/// structure-matched twin tracks the built-in sweep within 1.05e-3 rad; the realistic twin
+/// (controller model 10 % wrong, Stribeck stick-slip at 0.1 m/s) within 0.034 rad (measured
+/// on the quick sweep). 0.05 rad (about 3.5 cm at the IRB 1200's 0.7 m reach) is beyond
+/// both, so only a run the drives cannot follow (saturated torques, a payload far above the
+/// rating) exceeds it. A real controller tracks far better: the realistic twin's PD
+/// controller without integral action is an honest worst case, not a model of ABB's.
+pub const TRACKING_ERROR_BOUND_RAD: f64 = 0.05;
 
 /// One cell of the grid.
 #[derive(Debug, Clone, Serialize)]
