@@ -278,24 +278,10 @@ impl PowerModel {
         efficiency: f64,
         dt: f64,
     ) -> Result<EnergyPrediction> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(Error::InvalidInput(format!(
-                "integration step {dt} s must be positive"
-            )));
-        }
-        let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
-        let h = traj.duration() / steps as f64;
-        let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
-        let p = self.power_with_payloads(robot, traj, events, efficiency, &t)?;
-        let (mut motor, mut grid) = (0.0, 0.0);
-        for (k, p) in p.iter().enumerate() {
-            let weight = if k == 0 || k == steps { 0.5 } else { 1.0 };
-            motor += weight * p;
-            grid += weight * p.max(0.0);
-        }
+        let p = self.predict(robot, traj, events, efficiency, dt)?;
         Ok(EnergyPrediction {
-            motor_j: motor * h,
-            grid_j: grid * h,
+            motor_j: p.motor_j,
+            grid_j: p.grid_j,
         })
     }
 
