@@ -73,7 +73,29 @@ pub(crate) fn write(path: &Path, names: &[String], cols: &[&[f64]]) -> Result<()
 /// Read the `expected` columns, in that order. Errors ([`Error::Dataset`]) name the file and
 /// say what is wrong: not Parquet or truncated, missing/unexpected/repeated columns, a column
 /// that is not `Float64`, or a null or non-finite cell (with column and 1-based data row).
+///
+/// The Parquet decoder can panic on some corrupted files (found by tests/fuzz.rs: 9 of
+/// 30,000 mutated `measured.parquet` files); such a panic is caught and reported as an
+/// [`Error::Dataset`] like any other unreadable file.
 pub(crate) fn read(path: &Path, expected: &[String]) -> Result<Vec<Vec<f64>>> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        read_unchecked(path, expected)
+    }))
+    .unwrap_or_else(|panic| {
+        let why = panic
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| panic.downcast_ref::<&str>().copied())
+            .unwrap_or("unknown cause");
+        Err(Error::Dataset {
+            path: path.to_path_buf(),
+            message: format!("corrupt Parquet file: the decoder failed ({why})"),
+        })
+    })
+}
+
+/// [`read`] without the guard against decoder panics.
+fn read_unchecked(path: &Path, expected: &[String]) -> Result<Vec<Vec<f64>>> {
     let bad = |message: String| Error::Dataset {
         path: path.to_path_buf(),
         message,
