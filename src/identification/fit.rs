@@ -1,5 +1,5 @@
 //! Power-model fitting on pooled logs, with what a user knows and nothing else: the fitted
-//! states, the measured power of a stated [`PowerSignal`], and the known payload timeline.
+//! states, the measured power of a stated [`PowerSignal`](crate::measurement::PowerSignal), and the known payload timeline.
 //!
 //! The model (paper eqs. 9–13 with PMSM losses) is, per sample,
 //! `P = sum_i [dq_i tau_i + c_i tau_i^2] + P0` with `tau = W_base (theta + delta(t))`, where
