@@ -149,9 +149,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     let _ = writeln!(
         w,
         "Simulated energies come from the Rapier twin (commanded torques times the motion \
-         Rapier produced, through the motor model); predicted energies from the model \
-         identified from the logged joint positions and total power only, evaluated on the \
-         commanded trajectory. Errors are `100 (predicted - simulated) / simulated`.\n"
+         Rapier produced, through the motor model, with the unmodelled losses of the realistic \
+         truth); predicted energies from models identified from the logged joint positions and \
+         power only (the twin's truth only scores). Errors are \
+         `100 (predicted - simulated) / simulated`.\n"
     );
 
     heldout(w, r);

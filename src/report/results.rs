@@ -195,8 +195,7 @@ impl Results {
                     .map(|e| {
                         e.iter()
                             .filter_map(|e| e.payload.as_ref())
-                            .map(|p| p.inertia.mass)
-                            .sum()
+                            .fold(0.0, |m, p| m + p.inertia.mass)
                     })
                     .collect(),
                 residual_rms_w: outcome.idset.selection.fit.estimate.residual_rms,
