@@ -16,7 +16,6 @@ use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::identification::steps::{StepData, hold_still, identify};
 use crate::trajectory::fourier::Fourier;
-use crate::twin::motor::MotorModel;
 use crate::validation::rig::{Progress, Rig};
 
 /// Settings of the six steps.
@@ -76,10 +75,9 @@ pub struct Steps {
 }
 
 /// Run the steps on `rig` (one per joint, designs and twin runs in parallel) and identify
-/// step by step with the paper's linear power model (`theta` scaled by 1/eta for the
-/// efficiency motor model, SI for the PMSM model, whose copper loss it then does not
-/// represent). Measured data go through the paper's route (Fourier fit, 0.1 Hz, 5
-/// harmonics); the joints a step does not excite are held still in the fitted states.
+/// step by step with the paper's linear power model (`theta` scaled by 1/eta, as the
+/// paper's eq. 12; it has no copper loss). Measured data go through the paper's route
+/// (Fourier fit, 0.1 Hz, 5 harmonics); the joints a step does not excite are held still in the fitted states.
 pub fn run(rig: &Rig, opts: &StepsOptions, progress: &dyn Progress) -> Result<Steps> {
     let robot = rig.robot;
     let n = robot.dof();
@@ -126,8 +124,9 @@ pub fn run(rig: &Rig, opts: &StepsOptions, progress: &dyn Progress) -> Result<St
         });
     }
     let layout = ParamLayout::new(robot, true, true);
-    let scaled = rig.twin.motor == MotorModel::Efficiency;
-    let mut model = PowerModel::new(robot, layout, scaled)?;
+    // The paper's model: base parameters divided by the (unknown) efficiency, whatever motors
+    // the twin has (a user does not know them).
+    let mut model = PowerModel::new(robot, layout, true)?;
     let mut rows = Vec::with_capacity(n);
     for (k, (joints, ex, ds)) in runs.iter().enumerate() {
         let estimate = identify(robot, &mut model, &data[..=k])?
