@@ -236,6 +236,19 @@ pub struct Setup {
     pub sensor: SensorSettings,
 }
 
+impl Setup {
+    /// The experiment rig of this setup.
+    pub fn rig(&self) -> powertwin::validation::rig::Rig<'_> {
+        powertwin::validation::rig::Rig {
+            robot: &self.robot,
+            urdf: self.urdf.clone(),
+            drive: &self.drive,
+            twin: self.twin.clone(),
+            sensor: self.sensor,
+        }
+    }
+}
+
 impl TwinArgs {
     /// Table format of the datasets.
     pub fn format(&self) -> Format {

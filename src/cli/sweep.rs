@@ -8,7 +8,6 @@ use clap::Args;
 use powertwin::report::figures::energy_chart;
 use powertwin::report::plot::write_chart;
 use powertwin::trajectory::task::Scenario;
-use powertwin::validation::rig::Rig;
 use powertwin::validation::sweep::{self, Sweep};
 use serde::Serialize;
 
@@ -88,13 +87,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         .as_deref()
         .map(|p| read_model(p, &setup.robot))
         .transpose()?;
-    let rig = Rig {
-        robot: &setup.robot,
-        urdf: setup.urdf.clone(),
-        drive: &setup.drive,
-        twin: setup.twin.clone(),
-        sensor: setup.sensor,
-    };
+    let rig = setup.rig();
     let planned = sweep::plan(&setup.robot, &scenario)?;
     #[cfg(feature = "viz")]
     let viz = args.viz.open(None)?;

@@ -6,7 +6,6 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::Args;
 use powertwin::validation::heldout::{self, HeldoutOptions};
-use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
 use crate::cli::{TwinArgs, emit, read_model, write_all};
@@ -57,13 +56,7 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     if args.count == 0 {
         anyhow::bail!("--count must be at least 1");
     }
-    let rig = Rig {
-        robot: &setup.robot,
-        urdf: setup.urdf.clone(),
-        drive: &setup.drive,
-        twin: setup.twin.clone(),
-        sensor: setup.sensor,
-    };
+    let rig = setup.rig();
     let opts = HeldoutOptions {
         count: args.count,
         seed: args.seed,
