@@ -45,7 +45,7 @@ fn bench(c: &mut Criterion) {
         };
         let twin = Twin::new(&robot, &drive, cfg).expect("valid settings");
         group.bench_function(format!("substeps_{substeps}"), |b| {
-            b.iter(|| twin.run(black_box(&Swing), &[]).expect("runs"))
+            b.iter(|| twin.run(black_box(&Swing), &[], &[]).expect("runs"))
         });
     }
     group.finish();

@@ -13,10 +13,10 @@
 //!  drives,    Jacobian       regressor,   excitation     motors,   CSV +      has: times,
 //!  payloads                  base params  input, tasks   sensors   meta.json  q, power
 //!                                                                                │
-//!        report <── validation <── identification <──────────────────────────────┘
-//!        report.md,  experiments,   power model from the log (never the truth),
-//!        charts      scoring vs     excitation design, energy prediction
-//!                    the truth
+//!        report <── validation <── optimize <── identification <─────────────────┘
+//!        report.md,  experiments,   cheapest     power model from the log (never the
+//!        charts      scoring vs     timing and   truth), excitation design, energy
+//!                    the truth      placement    prediction
 //!
 //!  viz (cargo feature `viz`) observes every stage and logs it to the Rerun viewer.
 //! ```
@@ -24,8 +24,10 @@
 //! [`model`] (URDF, drives, payloads) → [`kinematics`] → [`dynamics`] (RNEA, regressor, mass
 //! matrix, base parameters) → [`trajectory`] → [`twin`] (Rapier, controller, motor and sensor
 //! models) → [`dataset`] → [`measurement`] (the log a user has of a run) →
-//! [`identification`] (power models, excitation design) → [`validation`] (the paper's
-//! experiments, scored against the twin's truth) → [`report`] (report.md, SVG and PNG
+//! [`identification`] (power models, excitation design) → [`optimize`] (the cheapest timing
+//! and placement of a task under a cycle-time bound, priced by an identified model) →
+//! [`validation`] (the paper's experiments and the optimised plans, scored against the
+//! twin's truth) → [`report`] (report.md, SVG and PNG
 //! charts). `viz` (cargo feature `viz`, on by default; opt out with
 //! `default-features = false`) logs the robot, runs and results to the Rerun viewer after
 //! the fact.
@@ -58,6 +60,7 @@ pub mod io;
 pub mod kinematics;
 pub mod measurement;
 pub mod model;
+pub mod optimize;
 pub mod report;
 pub mod trajectory;
 pub mod twin;

@@ -111,6 +111,7 @@ fn run(rig: &Rig, traj: &dyn Trajectory, run: u64) -> Dataset {
         urdf: rig.urdf.clone(),
         drive: rig.drive,
         events: &[],
+        brakes: &[],
         twin: rig.twin.clone(),
         sensor: SensorSettings {
             seed: run,

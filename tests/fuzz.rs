@@ -447,6 +447,7 @@ fn written_dataset(format: Format, name: &str) -> (PathBuf, Vec<(String, Vec<u8>
         urdf: Urdf::inline(builtin::IRB1200_URDF),
         drive: &drive,
         events: &[],
+        brakes: &[],
         twin,
         sensor: SensorSettings {
             rate_hz: 50.0,

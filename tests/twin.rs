@@ -60,6 +60,7 @@ fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
                 amp: 1.0,
             },
             &[],
+            &[],
         )
         .unwrap();
     assert!(report.torque_limit_hits.is_empty());
@@ -105,6 +106,7 @@ fn applied_work_equals_energy_change_plus_friction_loss() {
                 duration: 5.0,
                 amp: 1.0,
             },
+            &[],
             &[],
         )
         .unwrap();
@@ -175,7 +177,7 @@ fn picking_a_payload_adds_its_gravity_load() {
             payload: None,
         },
     ];
-    let (rec, _) = twin.run(&Hold, &events).unwrap();
+    let (rec, _) = twin.run(&Hold, &events, &[]).unwrap();
     let at = |t: f64| (t / rec.dt).round() as usize;
     let (before, during, after) = (at(0.9), at(1.9), at(2.9));
     assert_eq!(rec.payload_mass[before], 0.0);
@@ -219,8 +221,8 @@ fn runs_and_measurements_are_deterministic() {
         duration: 2.0,
         amp: 0.5,
     };
-    let (a, _) = twin.run(&traj, &[]).unwrap();
-    let (b, _) = twin.run(&traj, &[]).unwrap();
+    let (a, _) = twin.run(&traj, &[], &[]).unwrap();
+    let (b, _) = twin.run(&traj, &[], &[]).unwrap();
     assert_eq!(a, b);
     let s = SensorSettings {
         seed: 9,
@@ -255,8 +257,8 @@ fn runs_and_measurements_are_deterministic() {
     assert!((avg.p_total[5] - window).abs() < 1e-12);
     // A perturbed nominal model still tracks, with a larger error than the exact one.
     let exact = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
-    let (_, r_exact) = exact.run(&traj, &[]).unwrap();
-    let (_, r_pert) = twin.run(&traj, &[]).unwrap();
+    let (_, r_exact) = exact.run(&traj, &[], &[]).unwrap();
+    let (_, r_pert) = twin.run(&traj, &[], &[]).unwrap();
     assert!(r_pert.max_tracking_error_rad > r_exact.max_tracking_error_rad);
     assert!(r_pert.max_tracking_error_rad < 1e-2);
 }
@@ -275,6 +277,7 @@ fn bad_inputs_are_errors() {
                 duration: 0.5,
                 amp: 0.1,
             },
+            &[],
             &[],
         )
         .unwrap();
@@ -306,7 +309,8 @@ fn bad_inputs_are_errors() {
                 duration: 0.5,
                 amp: 0.1
             },
-            &unsorted
+            &unsorted,
+            &[]
         )
         .is_err()
     );

@@ -26,6 +26,7 @@ mod export;
 mod identify;
 mod log;
 mod model;
+mod optimize;
 mod progress;
 mod reproduce;
 mod simulate;
@@ -93,6 +94,10 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Generate many randomised ground-truth datasets in parallel (shardable).
     Dataset(dataset::DatasetArgs),
+    /// The cheapest timing (per-segment speed and acceleration, waits with servos or brakes)
+    /// and placement of a task in the same cycle time, predicted by a model and checked on the
+    /// twin.
+    Optimize(optimize::OptimizeArgs),
 }
 
 /// Which robot to load.
@@ -391,6 +396,11 @@ impl OverloadArgs {
             .map_err(|e| anyhow::anyhow!("{e}; pass --allow-overload to run it anyway"))
     }
 
+    /// Whether flagged twin runs and overloads are accepted.
+    pub fn allowed(&self) -> bool {
+        self.allow_overload
+    }
+
     /// Refuse the sweep's flagged cells (torque saturated, tracking lost) unless overloads
     /// are allowed, listing each with its reason. Run after every output is written.
     pub fn check_cells(&self, cells: &[Cell]) -> Result<()> {
@@ -428,5 +438,6 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Simulate(a) => simulate::run(&a),
         Command::Sweep(a) => sweep::run(&a),
         Command::Dataset(a) => dataset::run(&a),
+        Command::Optimize(a) => optimize::run(&a),
     }
 }

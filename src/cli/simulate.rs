@@ -63,6 +63,7 @@ pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
         urdf: setup.urdf.clone(),
         drive: &setup.drive,
         events: &events,
+        brakes: &[],
         twin: setup.twin.clone(),
         sensor: setup.sensor,
         trajectory: &traj,

@@ -167,6 +167,7 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         urdf: spec.urdf.clone(),
         drive: &drive,
         events: &events,
+        brakes: &[],
         twin: spec.twin.clone(),
         sensor,
         trajectory: traj.as_ref(),

@@ -25,6 +25,8 @@ pub struct RunSpec<'a> {
     pub drive: &'a Drive,
     /// Payload timeline (sorted by time).
     pub events: &'a [crate::model::payload::PayloadEvent],
+    /// Windows in which the brakes hold the arm (sorted; usually empty).
+    pub brakes: &'a [crate::model::drive::BrakeWindow],
     /// Physics, controller and motor settings.
     pub twin: TwinConfig,
     /// Logger settings.
@@ -44,8 +46,11 @@ pub fn simulate(spec: &RunSpec) -> Result<(Dataset, RunReport)> {
     let robot = spec.robot;
     spec.sensor.stride(spec.twin.physics.dt)?;
     check_limits(robot, spec.trajectory, spec.twin.physics.dt, None)?;
-    let (truth, report) =
-        Twin::new(robot, spec.drive, spec.twin.clone())?.run(spec.trajectory, spec.events)?;
+    let (truth, report) = Twin::new(robot, spec.drive, spec.twin.clone())?.run(
+        spec.trajectory,
+        spec.events,
+        spec.brakes,
+    )?;
     let measured = measure(&truth, &spec.sensor)?;
     let layout = ParamLayout::new(robot, true, true);
     let theta = layout.theta(robot, &DriveTerms::from(spec.drive));

@@ -14,6 +14,10 @@
 //! ```toml
 //! robot = "abb_irb1200_7_70"          # optional; must equal the robot name when present
 //! rated_payload_kg = 7.0              # optional; the maker's rated payload (tool + load)
+//! [brakes]                            # optional; a waiting mode with brakes applied
+//! power_W = 5.0                       # whole arm's drive power with servos off, brakes holding
+//! engage_s = 0.2                      # from standstill until the brakes hold (servo on)
+//! release_s = 0.2                     # from the release command until the servo holds
 //! [[joint]]                           # one entry per robot joint, any order
 //! name = "joint_1"
 //! rotor_inertia_kgm2 = 0.36
@@ -36,7 +40,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::model::{Friction, Robot};
@@ -118,11 +122,74 @@ impl JointDrive {
     }
 }
 
+/// The arm's standstill mode with brakes applied and servos off (a data-sheet value of the
+/// controller, e.g. an energy-saving mode). While the brakes hold, the motors draw no current:
+/// no copper loss and no servo standby power, only `power_w` for the whole arm.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Brakes {
+    /// Power of the whole arm's drives while all brakes hold, W.
+    #[serde(rename = "power_W")]
+    pub power_w: f64,
+    /// Time from standstill until the brakes hold, s; the servo holds the arm meanwhile.
+    pub engage_s: f64,
+    /// Time from the release command until the servo holds the arm again, s (servo on).
+    pub release_s: f64,
+}
+
+impl Brakes {
+    /// The shortest wait (s) in which the brakes can hold at all: engage plus release.
+    pub fn min_wait_s(&self) -> f64 {
+        self.engage_s + self.release_s
+    }
+}
+
+/// A time interval of a run during which the brakes hold the arm, s.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BrakeWindow {
+    /// Start (brakes holding), s.
+    pub start_s: f64,
+    /// End (release begins; the servo holds from here), s.
+    pub end_s: f64,
+}
+
+impl BrakeWindow {
+    /// Check a sorted, non-overlapping list of finite windows with `start_s < end_s`.
+    pub fn check_all(windows: &[BrakeWindow]) -> Result<()> {
+        for (k, w) in windows.iter().enumerate() {
+            if !(w.start_s.is_finite() && w.end_s.is_finite() && w.start_s < w.end_s) {
+                return Err(Error::InvalidInput(format!(
+                    "brake window {} [{}, {}] s must be finite with start < end",
+                    k + 1,
+                    w.start_s,
+                    w.end_s
+                )));
+            }
+            if k > 0 && w.start_s < windows[k - 1].end_s {
+                return Err(Error::InvalidInput(format!(
+                    "brake window {} starts at {} s before window {} ends at {} s",
+                    k + 1,
+                    w.start_s,
+                    k,
+                    windows[k - 1].end_s
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether time `t` (s) lies in one of `windows` (`start <= t < end`).
+    pub fn holds(windows: &[BrakeWindow], t: f64) -> bool {
+        windows.iter().any(|w| w.start_s <= t && t < w.end_s)
+    }
+}
+
 /// Drive data of every joint of a robot, in robot joint order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Drive {
     joints: Vec<JointDrive>,
     rated_payload_kg: Option<f64>,
+    brakes: Option<Brakes>,
 }
 
 /// The TOML file as written.
@@ -131,6 +198,7 @@ pub struct Drive {
 struct DriveFile {
     robot: Option<String>,
     rated_payload_kg: Option<f64>,
+    brakes: Option<Brakes>,
     joint: Vec<JointEntry>,
 }
 
@@ -190,6 +258,17 @@ impl Drive {
             return Err(err(format!(
                 "rated_payload_kg = {m}; it must be finite and positive"
             )));
+        }
+        if let Some(b) = &file.brakes {
+            for (key, v) in [
+                ("power_W", b.power_w),
+                ("engage_s", b.engage_s),
+                ("release_s", b.release_s),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(err(format!("brakes.{key} = {v} must be finite and >= 0")));
+                }
+            }
         }
         let index: HashMap<&str, usize> = robot
             .joints()
@@ -268,6 +347,7 @@ impl Drive {
         Ok(Drive {
             joints,
             rated_payload_kg: file.rated_payload_kg,
+            brakes: file.brakes,
         })
     }
 
@@ -295,6 +375,7 @@ impl Drive {
         Ok(Drive {
             joints,
             rated_payload_kg: None,
+            brakes: None,
         })
     }
 
@@ -303,6 +384,7 @@ impl Drive {
         Drive {
             joints: vec![JointDrive::lossless(Friction::default()); robot.dof()],
             rated_payload_kg: None,
+            brakes: None,
         }
     }
 
@@ -316,6 +398,7 @@ impl Drive {
                 .map(|j| JointDrive::lossless(j.friction))
                 .collect(),
             rated_payload_kg: None,
+            brakes: None,
         }
     }
 
@@ -332,6 +415,7 @@ impl Drive {
                 })
                 .collect(),
             rated_payload_kg: self.rated_payload_kg,
+            brakes: self.brakes,
         }
     }
 
@@ -345,6 +429,11 @@ impl Drive {
     /// an overload ([`crate::model::payload::check_rated`]).
     pub fn rated_payload_kg(&self) -> Option<f64> {
         self.rated_payload_kg
+    }
+
+    /// The brakes-applied standstill mode, when the drive file gives it (`[brakes]`).
+    pub fn brakes(&self) -> Option<&Brakes> {
+        self.brakes.as_ref()
     }
 
     /// The drives' nominal efficiency: the mean of the joints' efficiencies. What the

@@ -1,7 +1,9 @@
-//! The charts of `powertwin reproduce`, built from its outcome.
+//! The charts of `powertwin reproduce`, built from its outcome, and of `powertwin optimize`.
 
+use crate::dataset::Dataset;
 use crate::error::Result;
 use crate::model::Robot;
+use crate::optimize::Optimized;
 use crate::report::plot::{Annotation, Chart, Series, Style, XAxis};
 use crate::validation::reproduce::Outcome;
 use crate::validation::sweep::{Sweep, distinct};
@@ -294,4 +296,72 @@ fn power_chart(
             )
             .dashed(),
         )
+}
+
+/// Least predicted energy per cycle against cycle time for the optimised timing (waits
+/// included), beside the uniform-speed plans, with the bound and the two compared plans
+/// marked.
+pub fn pareto_chart(found: &Optimized) -> Chart {
+    let mut chart = Chart::new(
+        "Energy per cycle against cycle time (predicted)",
+        "Cycle time (s)",
+        "Energy per cycle (J)",
+    )
+    .with_series(Series::new(
+        "optimised timing",
+        found
+            .front
+            .iter()
+            .map(|p| (p.cycle_time_s, p.predicted_j))
+            .collect(),
+        Style::Line,
+    ))
+    .with_series(
+        Series::new(
+            "uniform speed",
+            found
+                .uniform_curve
+                .iter()
+                .map(|p| (p.cycle_time_s, p.predicted_j))
+                .collect(),
+            Style::LineMarkers,
+        )
+        .dashed(),
+    );
+    let u = &found.uniform;
+    chart = chart.with_annotation(Annotation::Point {
+        x: u.cycle_time_s,
+        y: u.predicted_j,
+        label: format!("uniform {} m/s", u.speed_m_s),
+    });
+    let s = &found.schedule;
+    chart.with_annotation(Annotation::Point {
+        x: s.cycle_time_s,
+        y: s.predicted_j,
+        label: "optimised".into(),
+    })
+}
+
+/// Power of the signal the model predicts (DC bus or grid: clipped at zero; else the motor
+/// sum) of each named twin run against time.
+pub fn plan_power_chart(runs: &[(&str, &Dataset)]) -> Chart {
+    let mut chart = Chart::new("Power on the twin", "Time (s)", "Power (W)");
+    for (name, ds) in runs {
+        let rec = &ds.truth;
+        let stride = (0.01 / rec.dt).round().max(1.0) as usize;
+        let signal = if ds.meta.measurement.power_signal.clipped() {
+            &rec.p_grid
+        } else {
+            &rec.p_total
+        };
+        let points = rec
+            .t
+            .iter()
+            .zip(signal)
+            .step_by(stride)
+            .map(|(t, p)| (*t, *p))
+            .collect();
+        chart = chart.with_series(Series::new(*name, points, Style::Line));
+    }
+    chart
 }

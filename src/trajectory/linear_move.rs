@@ -165,6 +165,22 @@ pub struct ViaPose {
     pub tcp: Isometry3<f64>,
 }
 
+/// How one segment is timed: its TCP speed and acceleration bounds and the time spent standing
+/// at its end. [`plan`] uses one speed for every segment; [`plan_timed`] takes one of these
+/// per segment.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentTiming {
+    /// Commanded TCP speed, m/s (finite, > 0).
+    pub speed_m_s: f64,
+    /// TCP acceleration and deceleration bound, m/s^2, in `(0, limits.accel_m_s2]`. The other
+    /// bounds of the segment scale with it: the jerk bound by the same ratio (the jerk ramps
+    /// keep their duration), and the tool's angular acceleration and jerk bounds too.
+    pub accel_m_s2: f64,
+    /// Time standing at the segment's end, s (>= 0).
+    pub dwell_s: f64,
+}
+
 /// Which joint limit made a segment slow down.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -251,6 +267,31 @@ pub fn plan(
             "TCP speed {speed_m_s} m/s must be finite and positive"
         )));
     }
+    let timing = SegmentTiming {
+        speed_m_s,
+        accel_m_s2: options.limits.accel_m_s2,
+        dwell_s: options.dwell_s,
+    };
+    let timings = vec![timing; via.len().saturating_sub(1)];
+    plan_timed(robot, tcp, seed, via, &timings, options)
+}
+
+/// [`plan`] with its own speed, acceleration and dwell for every segment (`timing[k]` times
+/// the move from `via[k]` to `via[k + 1]`); `options.dwell_s` is not used. The errors of
+/// [`plan`], and [`Error::InvalidInput`] for a timing list of another length than the
+/// segments, a speed that is not finite and positive, an acceleration outside
+/// `(0, limits.accel_m_s2]` or a negative dwell.
+pub fn plan_timed(
+    robot: &Robot,
+    tcp: &Isometry3<f64>,
+    seed: &[f64],
+    via: &[ViaPose],
+    timing: &[SegmentTiming],
+    options: &LinearMoveOptions,
+) -> Result<LinearMotion> {
+    for (k, s) in timing.iter().enumerate() {
+        check_timing(k, s, &options.limits)?;
+    }
     if via.len() < 2 {
         return Err(Error::InvalidInput(format!(
             "linear moves need at least 2 via points (the start and a target), got {}",
@@ -280,9 +321,17 @@ pub fn plan(
     let mut slowed = Vec::new();
     let mut t = 0.0;
     let mut q = q_start;
-    for k in 0..via.len() - 1 {
+    if timing.len() != via.len() - 1 {
+        return Err(Error::InvalidInput(format!(
+            "{} segment timings for {} via points ({} segments)",
+            timing.len(),
+            via.len(),
+            via.len() - 1
+        )));
+    }
+    for (k, timing) in timing.iter().enumerate() {
         let seg = Segment::new(k, &via[k], &via[k + 1]);
-        if let Some(planned) = seg.plan(&ctx, &q, speed_m_s)? {
+        if let Some(planned) = seg.plan(&ctx, &q, timing)? {
             for s in &planned.samples {
                 out.push(t + s.t, &s.q, &s.dq, &s.ddq);
             }
@@ -293,8 +342,8 @@ pub fn plan(
             slowed.extend(planned.slowed);
         }
         arrivals.push(t);
-        if options.dwell_s > 0.0 {
-            t += options.dwell_s;
+        if timing.dwell_s > 0.0 {
+            t += timing.dwell_s;
             out.push(t, &q, &zero, &zero);
         }
     }
@@ -309,6 +358,45 @@ pub fn plan(
         arrivals_s: arrivals,
         duration_s: t,
         slowed,
+    })
+}
+
+/// The arm's configuration at the via points of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViaConfigurations {
+    /// Joint angles at every via point, rad.
+    pub q: Vec<Vec<f64>>,
+    /// Joints (1-based) held at the seed's values (empty for a 6-joint arm): plan parts of
+    /// the path with these as [`LinearMoveOptions::hold_joints`] to move as the whole plan.
+    pub hold_joints: Vec<usize>,
+}
+
+/// Joint angles (rad) at every via point as [`plan`] reaches them: the first nearest `seed`,
+/// each next one from the previous, so the arm keeps its configuration. Errors as [`plan`]'s
+/// for the via points.
+pub fn via_configurations(
+    robot: &Robot,
+    tcp: &Isometry3<f64>,
+    seed: &[f64],
+    via: &[ViaPose],
+    options: &LinearMoveOptions,
+) -> Result<ViaConfigurations> {
+    if robot.dof() < 6 {
+        return Err(Error::Model(format!(
+            "robot '{}' has {} joints; linear TCP moves need at least 6",
+            robot.name(),
+            robot.dof()
+        )));
+    }
+    robot.check_len(seed, "seed")?;
+    crate::error::ensure_finite(seed, "seed")?;
+    let solver = Solver::new(robot, tcp, seed, via, options)?;
+    Ok(ViaConfigurations {
+        q: solver.via_points(robot, tcp, seed, via)?,
+        hold_joints: match &solver {
+            Solver::Opw(_) => Vec::new(),
+            Solver::Numeric { held, .. } => held.iter().map(|j| j + 1).collect(),
+        },
     })
 }
 
@@ -502,6 +590,34 @@ fn validate(robot: &Robot, options: &LinearMoveOptions) -> Result<()> {
     Ok(())
 }
 
+/// Check segment `k`'s timing against the bounds.
+fn check_timing(k: usize, s: &SegmentTiming, limits: &MotionLimits) -> Result<()> {
+    let place = || format!("segment {}", k + 1);
+    if !(s.speed_m_s.is_finite() && s.speed_m_s > 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "{}: TCP speed {} m/s must be finite and positive",
+            place(),
+            s.speed_m_s
+        )));
+    }
+    if !(s.accel_m_s2 > 0.0 && s.accel_m_s2 <= limits.accel_m_s2) {
+        return Err(Error::InvalidInput(format!(
+            "{}: TCP acceleration {} m/s^2 must be in (0, {}] (the motion limit accel_m_s2)",
+            place(),
+            s.accel_m_s2,
+            limits.accel_m_s2
+        )));
+    }
+    if !(s.dwell_s.is_finite() && s.dwell_s >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "{}: dwell {} s must be finite and non-negative",
+            place(),
+            s.dwell_s
+        )));
+    }
+    Ok(())
+}
+
 /// "via point 4 'B' at (0.300, 0.300, 0.300) m" (1-based).
 fn describe_via(k: usize, v: &ViaPose) -> String {
     let p = v.tcp.translation.vector;
@@ -648,17 +764,23 @@ impl<'a> Segment<'a> {
 
     /// Time the segment from joint configuration `q0` at the commanded speed, slowing it down
     /// for the joint limits; `None` for a segment without motion.
-    fn plan(&self, ctx: &Context, q0: &[f64], speed_m_s: f64) -> Result<Option<PlannedSegment>> {
+    fn plan(
+        &self,
+        ctx: &Context,
+        q0: &[f64],
+        timing: &SegmentTiming,
+    ) -> Result<Option<PlannedSegment>> {
         if self.length == 0.0 && self.angle == 0.0 {
             return Ok(None);
         }
         let l = ctx.limits;
+        let scale = timing.accel_m_s2 / l.accel_m_s2;
         // Bounds on u (1/s, 1/s^2, 1/s^3): the tighter of translation and rotation.
         let bound = |lin: f64, ang: f64| (lin / self.length).min(ang / self.angle);
         let planned = [
-            bound(speed_m_s, l.angular_speed_rad_s),
-            bound(l.accel_m_s2, l.angular_accel_rad_s2),
-            bound(l.jerk_m_s3, l.angular_jerk_rad_s3),
+            bound(timing.speed_m_s, l.angular_speed_rad_s),
+            bound(timing.accel_m_s2, scale * l.angular_accel_rad_s2),
+            bound(scale * l.jerk_m_s3, scale * l.angular_jerk_rad_s3),
         ];
         let mut b = planned;
         // Peak u speed of the unslowed profile; the first limit violation; the last one

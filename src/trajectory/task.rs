@@ -31,7 +31,7 @@ use crate::model::builtin;
 use crate::model::payload::Payload;
 use crate::model::payload::PayloadEvent;
 
-use super::linear_move::{self, LinearMotion, LinearMoveOptions, ViaPose};
+use super::linear_move::{self, LinearMotion, LinearMoveOptions, SegmentTiming, ViaPose};
 
 /// The `tool` of a scenario whose robot model already carries its end effector.
 pub const NO_TOOL: &str = "none";
@@ -203,53 +203,98 @@ impl Scenario {
         self.tool.as_ref().map_or(0.0, |t| t.inertia.mass) + heaviest * load_kg
     }
 
-    /// Plan the task on `robot` (bare, without payload) at the commanded TCP speed
-    /// `speed_m_s` (m/s) and load level `load_kg` (kg, see the [module docs](self)).
-    ///
-    /// Errors: [`Error::InvalidInput`] for a load level that is not finite and non-negative;
-    /// the errors of [`linear_move::plan`] (unreachable via points and joint-limit problems
-    /// name the via point or the segment).
-    pub fn plan(&self, robot: &Robot, speed_m_s: f64, load_kg: f64) -> Result<TaskRun> {
-        if !(load_kg.is_finite() && load_kg >= 0.0) {
-            return Err(Error::InvalidInput(format!(
-                "load level {load_kg} kg must be finite and non-negative"
-            )));
-        }
-        let tcp = self.tcp();
-        let via: Vec<ViaPose> = self
-            .path
+    /// Number of segments of the path (via points minus one); segment `k` runs from step
+    /// `k + 1` to step `k + 2` of `path` (1-based steps).
+    pub fn segments(&self) -> usize {
+        self.path.len() - 1
+    }
+
+    /// The via poses of the path in order: TCP poses in the base frame, m.
+    pub fn via_poses(&self) -> Vec<ViaPose> {
+        self.path
             .iter()
             .map(|name| ViaPose {
                 name: name.clone(),
                 tcp: Isometry3::from_parts(Translation3::from(self.points[name]), self.orientation),
             })
-            .collect();
-        let motion = linear_move::plan(robot, &tcp, &self.seed_rad, &via, speed_m_s, &self.motion)?;
-        let arrival = |step: usize| motion.arrivals_s[step - 1];
+            .collect()
+    }
+
+    /// The same task moved in the robot's base frame: every via point (and the TCP
+    /// orientation) rotated by `yaw_rad` about the base z axis, then translated by
+    /// `offset_m` (m). The loads, tool and timing are unchanged.
+    pub fn moved(&self, offset_m: &Vector3<f64>, yaw_rad: f64) -> Scenario {
+        let rot = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw_rad);
+        let mut out = self.clone();
+        for p in out.points.values_mut() {
+            *p = rot * *p + offset_m;
+        }
+        out.orientation = rot * self.orientation;
+        out
+    }
+
+    /// Plan the task on `robot` (bare, without payload) at the commanded TCP speed
+    /// `speed_m_s` (m/s) and load level `load_kg` (kg, see the [module docs](self)), with
+    /// the scenario's acceleration bound and dwell on every segment.
+    ///
+    /// Errors: [`Error::InvalidInput`] for a load level that is not finite and non-negative;
+    /// the errors of [`linear_move::plan`] (unreachable via points and joint-limit problems
+    /// name the via point or the segment).
+    pub fn plan(&self, robot: &Robot, speed_m_s: f64, load_kg: f64) -> Result<TaskRun> {
+        if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "TCP speed {speed_m_s} m/s must be finite and positive"
+            )));
+        }
+        self.plan_timed(robot, &self.uniform(speed_m_s), load_kg)
+    }
+
+    /// The timing of [`Scenario::plan`]: `speed_m_s` (m/s), the scenario's acceleration bound
+    /// and dwell on every segment.
+    pub fn uniform(&self, speed_m_s: f64) -> Vec<SegmentTiming> {
+        vec![
+            SegmentTiming {
+                speed_m_s,
+                accel_m_s2: self.motion.limits.accel_m_s2,
+                dwell_s: self.motion.dwell_s,
+            };
+            self.segments()
+        ]
+    }
+
+    /// Plan the task with one timing per segment ([`linear_move::plan_timed`]); otherwise as
+    /// [`Scenario::plan`].
+    pub fn plan_timed(
+        &self,
+        robot: &Robot,
+        timing: &[SegmentTiming],
+        load_kg: f64,
+    ) -> Result<TaskRun> {
+        let payloads = self.segment_payloads(load_kg)?;
+        let tcp = self.tcp();
+        let via = self.via_poses();
+        let motion =
+            linear_move::plan_timed(robot, &tcp, &self.seed_rad, &via, timing, &self.motion)?;
+        // What the flange carries changes on arrival at a pick or release step.
         let mut events = vec![PayloadEvent {
             t_s: 0.0,
             payload: self.tool.clone(),
         }];
-        if load_kg > 0.0 {
-            for load in &self.loads {
-                let mass = load.mass_fraction * load_kg;
-                let cube = Payload::cube(
-                    &format!("{} ({mass} kg)", load.name),
-                    mass,
-                    tcp.translation.vector,
-                )?;
+        for k in 1..payloads.len() {
+            if payloads[k] != payloads[k - 1] {
                 events.push(PayloadEvent {
-                    t_s: arrival(load.pick_at),
-                    payload: Some(match &self.tool {
-                        Some(tool) => tool.combined(&cube),
-                        None => cube,
-                    }),
-                });
-                events.push(PayloadEvent {
-                    t_s: arrival(load.release_at),
-                    payload: self.tool.clone(),
+                    t_s: motion.arrivals_s[k],
+                    payload: payloads[k].clone(),
                 });
             }
+        }
+        if let Some(last) = payloads.last()
+            && *last != self.tool
+        {
+            events.push(PayloadEvent {
+                t_s: motion.arrivals_s[payloads.len()],
+                payload: self.tool.clone(),
+            });
         }
         let via = via
             .into_iter()
@@ -265,6 +310,40 @@ impl Scenario {
             events,
             via,
         })
+    }
+
+    /// What the flange carries on each segment at load level `load_kg` (kg): the tool, or the
+    /// tool with the load picked at the segment's start step or before and released at its
+    /// end step or after. Errors: a load level that is not finite and non-negative.
+    pub fn segment_payloads(&self, load_kg: f64) -> Result<Vec<Option<Payload>>> {
+        if !(load_kg.is_finite() && load_kg >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "load level {load_kg} kg must be finite and non-negative"
+            )));
+        }
+        let tcp = self.tcp();
+        let mut out = vec![self.tool.clone(); self.segments()];
+        if load_kg > 0.0 {
+            for load in &self.loads {
+                let mass = load.mass_fraction * load_kg;
+                let cube = Payload::cube(
+                    &format!("{} ({mass} kg)", load.name),
+                    mass,
+                    tcp.translation.vector,
+                )?;
+                let carried = match &self.tool {
+                    Some(tool) => tool.combined(&cube),
+                    None => cube,
+                };
+                // Segment k starts at step k + 1 and ends at step k + 2 (1-based).
+                for (k, p) in out.iter_mut().enumerate() {
+                    if load.pick_at <= k + 1 && k + 2 <= load.release_at {
+                        *p = Some(carried.clone());
+                    }
+                }
+            }
+        }
+        Ok(out)
     }
 }
 

@@ -5,6 +5,13 @@
 //! the inverse-dynamics model evaluated on the reference. [`sensor`] turns the truth into a
 //! logged, noisy measurement stream.
 //!
+//! # Brakes
+//! A run may hold the arm with its brakes during [`BrakeWindow`]s (only while the reference
+//! stands still, and only with a drive file that gives the brakes-applied mode, [`Brakes`]).
+//! The motors then draw no current: every joint records `power_W / n` of the brakes-applied
+//! power and no copper, standby or iron loss. The joints do not move either way; the physics
+//! keeps applying the controller's holding torque, which stands in for the brakes' torque.
+//!
 //! Energy is integrated consistently with how torque is applied: torque is held over each
 //! step (zero-order hold), so joint work over step `k` is `tau_k (q_{k+1} - q_k)` exactly,
 //! and the recorded power is that work divided by `dt`.
@@ -19,7 +26,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::dynamics::DriveTerms;
 use crate::error::{Error, Result};
-use crate::model::drive::Drive;
+use crate::model::drive::{BrakeWindow, Brakes, Drive};
 use crate::model::payload::{Payload, PayloadEvent};
 use crate::model::{RigidInertia, Robot};
 use crate::trajectory::Trajectory;
@@ -151,11 +158,17 @@ impl<'a> Twin<'a> {
     }
 
     /// Simulate tracking `traj` from rest at its start, with payload changes `events`
-    /// (sorted by time; an event at 0 sets the initial payload).
+    /// (sorted by time; an event at 0 sets the initial payload) and the brakes holding the arm
+    /// during `brakes` (sorted, not overlapping; see the [module docs](self)).
+    ///
+    /// Errors: a trajectory of another joint count, unsorted or non-finite events or brake
+    /// windows, brake windows without a brakes-applied mode in the drive file or while the
+    /// reference moves, a non-finite torque or a diverging simulation.
     pub fn run(
         &self,
         traj: &dyn Trajectory,
         events: &[PayloadEvent],
+        brakes: &[BrakeWindow],
     ) -> Result<(Recording, RunReport)> {
         let n = self.robot.dof();
         if traj.dof() != n {
@@ -171,6 +184,18 @@ impl<'a> Twin<'a> {
                 "payload events must be finite and sorted by time".into(),
             ));
         }
+        BrakeWindow::check_all(brakes)?;
+        let brakes_mode: Option<&Brakes> = match (brakes.is_empty(), self.drive.brakes()) {
+            (true, _) => None,
+            (false, Some(b)) => Some(b),
+            (false, None) => {
+                return Err(Error::InvalidInput(
+                    "the run holds the arm with its brakes, but the drive file gives no \
+                     brakes-applied mode ([brakes])"
+                        .into(),
+                ));
+            }
+        };
         let cfg = &self.config;
         let dt = cfg.physics.dt;
         let truth_terms = DriveTerms::from(self.drive);
@@ -242,6 +267,12 @@ impl<'a> Twin<'a> {
                     "the simulation diverged at t = {t:.4} s"
                 )));
             }
+            let braked = brakes_mode.filter(|_| BrakeWindow::holds(brakes, t));
+            if braked.is_some() && dqr.iter().chain(&ddqr).any(|v| v.abs() > 1e-9) {
+                return Err(Error::InvalidInput(format!(
+                    "the brakes hold at t = {t:.4} s while the reference moves"
+                )));
+            }
             let mut p_total = 0.0;
             for i in 0..n {
                 max_err = max_err.max((qr[i] - q[i]).abs());
@@ -255,10 +286,16 @@ impl<'a> Twin<'a> {
                 }
                 let speed = (q_next[i] - q[i]) / dt;
                 let p_mech = tau[i] * speed;
-                let mut p_elec = cfg.motor.electrical_power(&joints[i], tau[i], p_mech);
-                if realistic {
-                    p_elec += joints[i].unmodelled.iron_loss(speed);
-                }
+                let p_elec = match braked {
+                    Some(b) => b.power_w / n as f64,
+                    None => {
+                        let mut p = cfg.motor.electrical_power(&joints[i], tau[i], p_mech);
+                        if realistic {
+                            p += joints[i].unmodelled.iron_loss(speed);
+                        }
+                        p
+                    }
+                };
                 p_total += p_elec;
                 rec.q[i].push(q[i]);
                 rec.dq[i].push(dq[i]);

@@ -7,6 +7,8 @@
 //! * [`params`]: identified against true base parameters (Table 2) and a physical-consistency
 //!   check of an identified model.
 //! * [`sweep`]: the pick-and-place task over speeds and loads (Figure 14).
+//! * [`optimized`]: an optimised task and the user's uniform plan on the twin, predicted and
+//!   simulated savings.
 //! * [`reproduce`]: all of the above in order, as `powertwin reproduce` runs them.
 //!
 //! Every experiment runs the twin through a [`rig::Rig`] and reports progress through
@@ -15,6 +17,7 @@
 pub mod estimators;
 pub mod heldout;
 pub mod idset;
+pub mod optimized;
 pub mod params;
 pub mod payloads;
 pub mod reproduce;

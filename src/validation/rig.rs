@@ -5,7 +5,7 @@ use crate::dataset::generate::{RunSpec, simulate};
 use crate::dataset::meta::Urdf;
 use crate::error::Result;
 use crate::model::Robot;
-use crate::model::drive::Drive;
+use crate::model::drive::{BrakeWindow, Drive};
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::twin::sensor::SensorSettings;
@@ -37,15 +37,16 @@ impl Rig<'_> {
         run: u64,
         description: serde_json::Value,
     ) -> Result<Dataset> {
-        Ok(self.run_reported(traj, events, run, description)?.0)
+        Ok(self.run_reported(traj, events, &[], run, description)?.0)
     }
 
-    /// [`Rig::run`], also returning the twin's [`RunReport`] (tracking error, torque
-    /// saturation).
+    /// [`Rig::run`] with the brakes holding the arm during `brakes`, also returning the twin's
+    /// [`RunReport`] (tracking error, torque saturation).
     pub fn run_reported(
         &self,
         traj: &dyn Trajectory,
         events: &[PayloadEvent],
+        brakes: &[BrakeWindow],
         run: u64,
         description: serde_json::Value,
     ) -> Result<(Dataset, RunReport)> {
@@ -54,6 +55,7 @@ impl Rig<'_> {
             urdf: self.urdf.clone(),
             drive: self.drive,
             events,
+            brakes,
             twin: self.twin.clone(),
             sensor: SensorSettings {
                 seed: self.sensor.seed.wrapping_add(run),

@@ -9,14 +9,12 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
+use crate::optimize::segment::Task;
+use crate::optimize::speed::{self, SpeedOptimum};
 use crate::trajectory::linear_move::SlowedSegment;
 use crate::trajectory::task::{Scenario, TaskRun};
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
-
-/// The model's search for the optimum speed per load stops when its bracket spans less than
-/// this ratio of speeds (golden-section search in log speed).
-const SEARCH_RATIO: f64 = 1.02;
 
 /// Largest tracking error, rad, at which a twin run still counts as the planned task. The
 /// structure-matched twin tracks the built-in sweep within 1.05e-3 rad; the realistic twin
@@ -97,11 +95,17 @@ pub struct Optimum {
     pub load_kg: f64,
     /// Speed of the grid cell with the least simulated energy, m/s.
     pub simulated_cell_m_s: f64,
-    /// Minimum of a parabola in log speed through that cell and its neighbours, m/s
-    /// (the cell's speed when it is at the edge of the grid).
+    /// Minimum of a parabola in log speed through that cell and its neighbours, m/s, when the
+    /// three cells have the same slowed segments (a smooth piece of the curve); else the
+    /// cell's speed (a parabola across a planner kink would be fiction).
     pub simulated_interpolated_m_s: f64,
-    /// Speed of least predicted energy, m/s: golden-section search with the model between the
-    /// grid cells around its least predicted cell (`null` without a model).
+    /// Whether the neighbours of the least simulated cell have other slowed segments than it
+    /// (the grid optimum sits at or near a planner limit).
+    pub simulated_near_planner_limit: bool,
+    /// The model's least-energy speed on its actual curve ([`crate::optimize::speed`];
+    /// `null` without a model), with whether it sits on a planner limit.
+    pub predicted: Option<SpeedOptimum>,
+    /// Speed of least predicted energy, m/s (`predicted.speed_m_s`).
     pub predicted_m_s: Option<f64>,
     /// Predicted energy there, J.
     #[serde(rename = "predicted_J")]
@@ -203,6 +207,7 @@ pub fn run(
             let (ds, report) = rig.run_reported(
                 &plan.motion.trajectory,
                 &plan.events,
+                &[],
                 200 + k as u64,
                 description,
             )?;
@@ -290,7 +295,9 @@ fn optimum(
         .min_by(|&a, &b| row[a].simulated_j.total_cmp(&row[b].simulated_j))
         .ok_or_else(|| Error::InvalidInput(format!("no cell with load {load} kg")))?;
     let interior = best > 0 && best + 1 < row.len();
-    let simulated_interpolated_m_s = if interior {
+    let slowed = |k: usize| row[k].slowed.iter().map(|s| s.segment).collect::<Vec<_>>();
+    let smooth = interior && slowed(best - 1) == slowed(best) && slowed(best + 1) == slowed(best);
+    let simulated_interpolated_m_s = if smooth {
         let x: Vec<f64> = (best - 1..=best + 1)
             .map(|k| row[k].speed_m_s.ln())
             .collect();
@@ -299,73 +306,30 @@ fn optimum(
     } else {
         row[best].speed_m_s
     };
-    let (predicted_m_s, predicted_j) = match predictor {
-        Some(p) => {
-            // Bracket: the grid cells around the model's least predicted energy.
-            let k = (0..row.len())
-                .min_by(|&a, &b| {
-                    let e = |i: usize| row[i].predicted_j.unwrap_or(f64::INFINITY);
-                    e(a).total_cmp(&e(b))
-                })
-                .unwrap_or(best);
-            let lo = row[k.saturating_sub(1)].speed_m_s;
-            let hi = row[(k + 1).min(row.len() - 1)].speed_m_s;
-            let (v, e) = search(rig, scenario, p, lo, hi, load)?;
-            (Some(v), Some(e))
+    let predicted = match predictor {
+        Some((model, efficiency)) => {
+            let task = Task {
+                robot: rig.robot,
+                scenario,
+                load_kg: load,
+                model,
+                efficiency,
+            };
+            let (lo, hi) = (row[0].speed_m_s, row[row.len() - 1].speed_m_s);
+            Some(speed::least_energy(&task, lo, hi)?)
         }
-        None => (None, None),
+        None => None,
     };
     Ok(Optimum {
         load_kg: load,
         simulated_cell_m_s: row[best].speed_m_s,
         simulated_interpolated_m_s,
-        predicted_m_s,
-        predicted_j,
+        simulated_near_planner_limit: interior && !smooth,
+        predicted_m_s: predicted.map(|p| p.speed_m_s),
+        predicted_j: predicted.map(|p| p.predicted_j),
+        predicted,
         interior,
     })
-}
-
-/// The speed (m/s) of least predicted energy (J) for `load` in `[lo, hi]`: golden-section
-/// search in log speed down to [`SEARCH_RATIO`], each point planned and predicted.
-fn search(
-    rig: &Rig,
-    scenario: &Scenario,
-    (model, efficiency): Predictor,
-    lo: f64,
-    hi: f64,
-    load: f64,
-) -> Result<(f64, f64)> {
-    let energy = |ln_v: f64| -> Result<f64> {
-        let plan = scenario.plan(rig.robot, ln_v.exp(), load)?;
-        Ok(model
-            .energy_with_payloads(
-                rig.robot,
-                &plan.motion.trajectory,
-                &plan.events,
-                efficiency,
-                rig.twin.physics.dt,
-            )?
-            .motor_j)
-    };
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = (lo.ln(), hi.ln());
-    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
-    let (mut f1, mut f2) = (energy(x1)?, energy(x2)?);
-    while b - a > SEARCH_RATIO.ln() {
-        if f1 <= f2 {
-            b = x2;
-            (x2, f2) = (x1, f1);
-            x1 = b - g * (b - a);
-            f1 = energy(x1)?;
-        } else {
-            a = x1;
-            (x1, f1) = (x2, f2);
-            x2 = a + g * (b - a);
-            f2 = energy(x2)?;
-        }
-    }
-    let (x, f) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
-    Ok((x.exp(), f))
 }
 
 /// The abscissa of the vertex of the parabola through three points (the middle one's when

@@ -1,0 +1,391 @@
+//! `powertwin optimize`: the cheapest timing (and placement) of a task in the same cycle time,
+//! checked on the twin.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use powertwin::identification::model::DATASHEET_EFFICIENCY;
+use powertwin::optimize::placement::{self, PlacementSearch, SearchBox};
+use powertwin::optimize::schedule::Schedule;
+use powertwin::optimize::segment::Task;
+use powertwin::optimize::{self, CycleBound, FrontPoint, Optimized, Options, UniformPoint};
+use powertwin::report::figures::{pareto_chart, plan_power_chart};
+use powertwin::report::plot::write_chart;
+use powertwin::trajectory::task::Scenario;
+use powertwin::validation::optimized::{self, Candidate, PlanCheck, Saving};
+use serde::Serialize;
+
+use crate::cli::progress::Bars;
+use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, write_all};
+
+/// Arguments of `optimize`.
+///
+/// Times every segment of the task (TCP speed and acceleration within the joint limits) and
+/// the wait that fills the cycle (servos holding, or brakes applied where the drive file gives
+/// a `[brakes]` mode) for the least energy the model predicts within the cycle-time bound; the
+/// default bound is the cycle time of the uniform plan at --speed. Both plans then run on the
+/// twin. Writes plan.json, pareto.svg/.png (least energy against cycle time, beside the
+/// uniform-speed curve), power.svg/.png (power of both plans on the twin) and the twin
+/// datasets under --out.
+#[derive(Debug, Args)]
+pub struct OptimizeArgs {
+    #[command(flatten)]
+    twin: TwinArgs,
+    /// Identified model (`identify --out`, or `reproduce`'s out/model.json).
+    #[arg(long, value_name = "MODEL.json")]
+    model: PathBuf,
+    /// Scenario TOML [default: built-in scenarios/pick_and_place.toml].
+    #[arg(long, value_name = "PATH")]
+    scenario: Option<PathBuf>,
+    /// Load level L, kg (load 1 = L/2, heavier load = L, as in the sweep).
+    #[arg(long, default_value_t = 2.0)]
+    load: f64,
+    /// TCP speed of the user's uniform plan, m/s: the reference the saving is measured
+    /// against.
+    #[arg(long, default_value_t = 0.5)]
+    speed: f64,
+    /// Cycle-time bound, s [default: the uniform plan's cycle time].
+    #[arg(long, value_name = "S", conflicts_with = "max_slowdown")]
+    cycle_time: Option<f64>,
+    /// Cycle-time bound as a slowdown of the uniform plan, %.
+    #[arg(long, value_name = "PCT")]
+    max_slowdown: Option<f64>,
+    /// Also search for a cheaper placement of the whole task within +-X, +-Y, +-Z (m) and
+    /// +-YAW (deg, about the base z axis) of the user's, e.g. 0.1,0.1,0.05,20.
+    #[arg(long, value_name = "X,Y,Z,YAW_DEG", value_delimiter = ',')]
+    search_offset: Vec<f64>,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    /// Print plan.json to stdout instead of a summary.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    overload: OverloadArgs,
+    #[cfg(feature = "viz")]
+    #[command(flatten)]
+    viz: crate::cli::viz::VizArgs,
+}
+
+/// One segment of `plan.json`.
+#[derive(Serialize)]
+struct SegmentOut {
+    from: String,
+    to: String,
+    speed_m_s: f64,
+    accel_m_s2: f64,
+    duration_s: f64,
+    #[serde(rename = "predicted_J")]
+    predicted_j: f64,
+    slowed_for_joint_limit: bool,
+    dwell_s: f64,
+    dwell_mode: &'static str,
+}
+
+/// `plan.json`.
+#[derive(Serialize)]
+struct PlanFile<'a> {
+    scenario: &'a str,
+    load_kg: f64,
+    reference_speed_m_s: f64,
+    cycle_time_bound_s: f64,
+    uniform: &'a UniformPoint,
+    segments: Vec<SegmentOut>,
+    cycle_time_s: f64,
+    #[serde(rename = "predicted_J")]
+    predicted_j: f64,
+    predicted_saving_pct: f64,
+    simulated_saving_pct: f64,
+    saving_interval_95_pct: f64,
+    within_interval: bool,
+    twin: Vec<&'a PlanCheck>,
+    placement: Option<PlacementOut<'a>>,
+    pareto: &'a [FrontPoint],
+    uniform_curve: &'a [UniformPoint],
+    method: &'static str,
+}
+
+#[derive(Serialize)]
+struct PlacementOut<'a> {
+    search: &'a PlacementSearch,
+    #[serde(rename = "optimized_predicted_J")]
+    optimized_predicted_j: f64,
+    optimized_cycle_time_s: f64,
+    saving: Saving,
+}
+
+const METHOD: &str = "Every segment is planned alone at 12 TCP speeds (0.15-2 m/s, log-spaced) \
+    plus the reference speed, x 3 accelerations (0.25, 0.5 and 1 x the scenario's bound), slowed \
+    by the planner where a joint limit binds, and priced by the model; an exact dynamic programme \
+    (1 ms slots) picks one timing per segment and the cheapest wait (servos or brakes, at the \
+    cheapest via point) under the bound. It needs no smooth objective: the joint-limit kinks are \
+    just other candidates. If nothing beats the uniform plan, the uniform plan is returned.";
+
+/// Run the optimisation and the twin check.
+pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
+    let setup = args.twin.setup()?;
+    if setup.payload.is_some() {
+        bail!("--payload does not apply to optimize: the scenario defines the tool and loads");
+    }
+    let scenario = match &args.scenario {
+        Some(p) => Scenario::from_file(p)?,
+        None => Scenario::builtin()?,
+    };
+    args.overload.check_payload(
+        scenario.max_payload_kg(args.load),
+        &setup.drive,
+        &format!(
+            "scenario '{}' at load level {} kg",
+            scenario.name, args.load
+        ),
+    )?;
+    let model = read_model(&args.model, &setup.robot)?;
+    let search_box = match args.search_offset.as_slice() {
+        [] => None,
+        [x, y, z, yaw] => Some(SearchBox {
+            half_m: [*x, *y, *z],
+            half_yaw_rad: yaw.to_radians(),
+        }),
+        other => bail!(
+            "--search-offset takes 4 values (X,Y,Z,YAW_DEG), got {}",
+            other.len()
+        ),
+    };
+    let bound = match (args.cycle_time, args.max_slowdown) {
+        (Some(s), _) => CycleBound::Seconds(s),
+        (None, Some(p)) => CycleBound::SlowdownPct(p),
+        (None, None) => CycleBound::SlowdownPct(0.0),
+    };
+    let task = Task {
+        robot: &setup.robot,
+        scenario: &scenario,
+        load_kg: args.load,
+        model: &model,
+        efficiency: DATASHEET_EFFICIENCY,
+    };
+    #[cfg(feature = "viz")]
+    let viz = args.viz.open(None)?;
+    let brakes = setup.drive.brakes();
+    let opts = Options::default();
+    let started = std::time::Instant::now();
+    let found = optimize::optimize(&task, args.speed, bound, brakes, &opts)
+        .context("optimising the task's timing")?;
+    let placed: Option<(PlacementSearch, Scenario, Schedule)> = match &search_box {
+        Some(area) => {
+            let search = placement::search(&task, args.speed, found.bound_s, area)
+                .context("searching placements")?;
+            let moved = search.moved(&scenario);
+            let moved_task = Task {
+                scenario: &moved,
+                ..task
+            };
+            let at_best = optimize::optimize(
+                &moved_task,
+                args.speed,
+                CycleBound::Seconds(found.bound_s),
+                brakes,
+                &opts,
+            )
+            .context("optimising the task at the best placement")?;
+            Some((search, moved, at_best.schedule))
+        }
+        None => None,
+    };
+    let optimise_s = started.elapsed().as_secs_f64();
+    let rig = setup.rig();
+    let bars = Bars::new();
+    let mut candidates = vec![Candidate {
+        name: "optimized",
+        task,
+        schedule: &found.schedule,
+    }];
+    if let Some((_, moved, schedule)) = &placed {
+        candidates.push(Candidate {
+            name: "optimized at the best placement",
+            task: Task {
+                scenario: moved,
+                ..task
+            },
+            schedule,
+        });
+    }
+    let checked = optimized::check(&rig, &task, &found, &candidates, &bars)?;
+    bars.finish();
+
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let names: Vec<(String, &powertwin::dataset::Dataset)> = ["uniform", "optimized", "placed"]
+        .iter()
+        .zip(&checked.datasets)
+        .map(|(n, d)| (n.to_string(), d))
+        .collect();
+    write_all(&names, &args.out, args.twin.format)?;
+    let (opt_check, saving) = &checked.plans[0];
+    let file = PlanFile {
+        scenario: &scenario.name,
+        load_kg: args.load,
+        reference_speed_m_s: args.speed,
+        cycle_time_bound_s: found.bound_s,
+        uniform: &found.uniform,
+        segments: segments_out(&scenario, &found),
+        cycle_time_s: found.schedule.cycle_time_s,
+        predicted_j: opt_check.predicted_j,
+        predicted_saving_pct: saving.predicted_saving_pct,
+        simulated_saving_pct: saving.simulated_saving_pct,
+        saving_interval_95_pct: saving.interval_95_pct,
+        within_interval: saving.within_interval,
+        twin: std::iter::once(&checked.uniform)
+            .chain(checked.plans.iter().map(|(c, _)| c))
+            .collect(),
+        placement: placed.as_ref().map(|(search, _, schedule)| PlacementOut {
+            search,
+            optimized_predicted_j: checked.plans[1].0.predicted_j,
+            optimized_cycle_time_s: schedule.cycle_time_s,
+            saving: checked.plans[1].1,
+        }),
+        pareto: &found.front,
+        uniform_curve: &found.uniform_curve,
+        method: METHOD,
+    };
+    let json = serde_json::to_string_pretty(&file).context("serialising plan.json")?;
+    powertwin::io::write_atomic(&args.out.join("plan.json"), json.as_bytes())?;
+    write_chart(&pareto_chart(&found), &args.out, "pareto", 960, 600)?;
+    let traces: Vec<(&str, &powertwin::dataset::Dataset)> = std::iter::once("uniform")
+        .chain(checked.plans.iter().map(|(c, _)| c.name.as_str()))
+        .zip(&checked.datasets)
+        .collect();
+    write_chart(&plan_power_chart(&traces), &args.out, "power", 960, 600)?;
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        let tcp = scenario.tcp();
+        for (((name, ds), run), _) in traces.iter().zip(&checked.runs).zip(&checked.brakes) {
+            let prefix = format!("optimize/{}", powertwin::viz::path_part(name));
+            viz.log_run(
+                &setup.robot,
+                ds,
+                None,
+                &prefix,
+                powertwin::viz::DEFAULT_DISPLAY_HZ,
+            )?;
+            viz.log_task(
+                &setup.robot,
+                run,
+                &tcp,
+                &prefix,
+                powertwin::viz::DEFAULT_DISPLAY_HZ,
+            )?;
+        }
+        viz.flush()?;
+    }
+    emit(&if args.json {
+        json + "\n"
+    } else {
+        summary(&found, &checked, placed.as_ref().map(|p| &p.0), optimise_s)
+    })?;
+    let flagged: Vec<&str> = std::iter::once(&checked.uniform)
+        .chain(checked.plans.iter().map(|(c, _)| c))
+        .filter(|c| c.flagged)
+        .map(|c| c.name.as_str())
+        .collect();
+    if !flagged.is_empty() && !args.overload.allowed() {
+        bail!(
+            "the twin did not perform these plans as planned (torque saturated or tracking \
+             beyond 0.05 rad): {}; pass --allow-overload to accept them",
+            flagged.join(", ")
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The chosen timing per segment for plan.json.
+fn segments_out(scenario: &Scenario, found: &Optimized) -> Vec<SegmentOut> {
+    let path = scenario.path();
+    let s = &found.schedule;
+    s.segments
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            let waits = k == s.wait.after_segment && s.wait.duration_s > 0.0;
+            SegmentOut {
+                from: path[k].clone(),
+                to: path[k + 1].clone(),
+                speed_m_s: c.speed_m_s,
+                accel_m_s2: c.accel_m_s2,
+                duration_s: c.duration_s,
+                predicted_j: c.energy_j,
+                slowed_for_joint_limit: c.slowed,
+                dwell_s: if waits { s.wait.duration_s } else { 0.0 },
+                dwell_mode: match (waits, s.wait.mode) {
+                    (false, _) => "none",
+                    (true, optimize::schedule::WaitMode::Hold) => "hold",
+                    (true, optimize::schedule::WaitMode::Brakes) => "brakes",
+                },
+            }
+        })
+        .collect()
+}
+
+/// The text summary.
+fn summary(
+    found: &Optimized,
+    checked: &optimized::Checked,
+    placed: Option<&PlacementSearch>,
+    optimise_s: f64,
+) -> String {
+    let mut o = String::new();
+    let u = &checked.uniform;
+    outln!(
+        o,
+        "uniform plan at {} m/s: cycle {:.3} s, predicted {:.1} +- {:.1} J, twin {:.1} J",
+        found.uniform.speed_m_s,
+        u.cycle_time_s,
+        u.predicted_j,
+        u.interval_j,
+        u.simulated_j
+    );
+    for (c, s) in &checked.plans {
+        outln!(
+            o,
+            "{}: cycle {:.3} s (bound {:.3} s), predicted {:.1} +- {:.1} J, twin {:.1} J, \
+             brakes {:.2} s",
+            c.name,
+            c.cycle_time_s,
+            found.bound_s,
+            c.predicted_j,
+            c.interval_j,
+            c.simulated_j,
+            c.braked_s.max(0.0)
+        );
+        outln!(
+            o,
+            "  saving: predicted {:.1} +- {:.1} %, twin {:.1} % ({})",
+            s.predicted_saving_pct,
+            s.interval_95_pct,
+            s.simulated_saving_pct,
+            if s.within_interval {
+                "within the interval"
+            } else {
+                "OUTSIDE the interval"
+            }
+        );
+    }
+    if let Some(p) = placed {
+        outln!(
+            o,
+            "placement: user {:.1} J, best {:.1} J at offset ({:.3}, {:.3}, {:.3}) m, yaw {:.1} deg \
+             (uniform plan; {} placements priced, {} infeasible)",
+            p.user.predicted_j,
+            p.best.predicted_j,
+            p.best.offset_m[0],
+            p.best.offset_m[1],
+            p.best.offset_m[2],
+            p.best.yaw_deg,
+            p.evaluated,
+            p.infeasible
+        );
+    }
+    outln!(o, "optimisation took {optimise_s:.1} s");
+    o
+}

@@ -1,0 +1,202 @@
+//! The twin's check of an optimised task: the user's uniform plan and the optimised plan
+//! (and the optimised plan at the best placement, when one was searched) run on the twin,
+//! with predicted and simulated energies and savings side by side.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::dataset::Dataset;
+use crate::error::{Error, Result};
+use crate::model::drive::{BrakeWindow, Brakes};
+use crate::optimize::schedule::{Schedule, WaitPrices};
+use crate::optimize::segment::Task;
+use crate::optimize::{Optimized, predict_run};
+use crate::trajectory::task::TaskRun;
+use crate::twin::TorqueLimitHit;
+use crate::validation::rig::{Progress, Rig};
+use crate::validation::sweep::TRACKING_ERROR_BOUND_RAD;
+
+/// One plan on the twin.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanCheck {
+    /// Which plan ("uniform", "optimized", "optimized, best placement").
+    pub name: String,
+    /// Cycle time, s.
+    pub cycle_time_s: f64,
+    /// Predicted energy per cycle (the model's signal), J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Half-width of its 95 % interval, J.
+    #[serde(rename = "interval_95_J")]
+    pub interval_j: f64,
+    /// Energy of the same signal on the twin, J.
+    #[serde(rename = "simulated_J")]
+    pub simulated_j: f64,
+    /// `100 (predicted - simulated) / simulated`, %.
+    pub error_pct: f64,
+    /// Time the brakes held the arm, s.
+    pub braked_s: f64,
+    /// Largest |q_ref - q| of the twin run, rad.
+    pub max_tracking_error_rad: f64,
+    /// Joints whose torque the twin clipped.
+    pub torque_limit_hits: Vec<TorqueLimitHit>,
+    /// Whether the twin did not perform the plan as planned (saturated torque or tracking
+    /// error above [`TRACKING_ERROR_BOUND_RAD`]).
+    pub flagged: bool,
+}
+
+/// A saving of one plan against the uniform one.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Saving {
+    /// `100 (1 - E_plan / E_uniform)` from the model, %.
+    pub predicted_saving_pct: f64,
+    /// Half-width of its 95 % interval, percentage points (the two plans' intervals added: an
+    /// upper bound whatever their correlation).
+    pub interval_95_pct: f64,
+    /// The same on the twin, %.
+    pub simulated_saving_pct: f64,
+    /// Whether the simulated saving lies within the predicted one's interval.
+    pub within_interval: bool,
+}
+
+impl Saving {
+    fn of(plan: &PlanCheck, uniform: &PlanCheck) -> Saving {
+        let predicted = 100.0 * (1.0 - plan.predicted_j / uniform.predicted_j);
+        let simulated = 100.0 * (1.0 - plan.simulated_j / uniform.simulated_j);
+        let interval = 100.0 * (plan.interval_j + uniform.interval_j) / uniform.predicted_j;
+        Saving {
+            predicted_saving_pct: predicted,
+            interval_95_pct: interval,
+            simulated_saving_pct: simulated,
+            within_interval: (predicted - simulated).abs() <= interval,
+        }
+    }
+}
+
+/// A plan to check: its task, schedule and name.
+pub struct Candidate<'a> {
+    /// Display name.
+    pub name: &'a str,
+    /// The task (possibly moved to another placement).
+    pub task: Task<'a>,
+    /// Its schedule.
+    pub schedule: &'a Schedule,
+}
+
+/// What the twin says of the plans.
+pub struct Checked {
+    /// The user's uniform plan.
+    pub uniform: PlanCheck,
+    /// The optimised plans, in the order given, with their savings against `uniform`.
+    pub plans: Vec<(PlanCheck, Saving)>,
+    /// The twin runs: the uniform plan first, then the optimised ones.
+    pub datasets: Vec<Dataset>,
+    /// The planned runs, in the same order.
+    pub runs: Vec<TaskRun>,
+    /// The brake windows of each run, s.
+    pub brakes: Vec<Vec<BrakeWindow>>,
+}
+
+/// Run the uniform plan of `optimized` (on `task`) and every candidate plan on `rig` in
+/// parallel. Errors: planning or twin errors; a flagged run is reported, not an error.
+pub fn check(
+    rig: &Rig,
+    task: &Task,
+    optimized: &Optimized,
+    candidates: &[Candidate],
+    progress: &dyn Progress,
+) -> Result<Checked> {
+    let brakes = rig.drive.brakes();
+    progress.stage("optimised plans on the twin", candidates.len() + 1);
+    let uniform_run = task
+        .scenario
+        .plan(task.robot, optimized.uniform.speed_m_s, task.load_kg)?;
+    let mut jobs: Vec<(String, Task, TaskRun, Vec<BrakeWindow>, f64)> =
+        vec![("uniform".to_string(), *task, uniform_run, Vec::new(), 0.0)];
+    for c in candidates {
+        let run =
+            c.task
+                .scenario
+                .plan_timed(c.task.robot, &c.schedule.timings(), c.task.load_kg)?;
+        let windows = c.schedule.brake_windows(&run.motion.arrivals_s, brakes);
+        let hold_w = if windows.is_empty() {
+            0.0
+        } else {
+            WaitPrices::new(&c.task, brakes)?.hold_w[c.schedule.wait.after_segment]
+        };
+        jobs.push((c.name.to_string(), c.task, run, windows, hold_w));
+    }
+    let clipped = task.model.signal.clipped();
+    let out: Vec<(PlanCheck, Dataset)> = jobs
+        .par_iter()
+        .enumerate()
+        .map(|(k, (name, t, run, windows, hold_w))| {
+            let description = serde_json::json!({
+                "kind": "optimised task check",
+                "plan": name,
+                "scenario": t.scenario.name,
+                "load_kg": t.load_kg,
+            });
+            let (ds, report) = rig.run_reported(
+                &run.motion.trajectory,
+                &run.events,
+                windows,
+                300 + k as u64,
+                description,
+            )?;
+            let p = predict_run(t, run)?;
+            let braked_s: f64 = windows.iter().map(|w| w.end_s - w.start_s).sum();
+            let brake_w = brakes.map_or(0.0, |b: &Brakes| b.power_w);
+            let predicted_j = p.energy_j - (hold_w - brake_w) * braked_s;
+            let sim = &ds.meta.summary;
+            let simulated_j = if clipped {
+                sim.energy_grid_j
+            } else {
+                sim.energy_total_j
+            };
+            progress.advance();
+            Ok((
+                PlanCheck {
+                    name: name.clone(),
+                    cycle_time_s: run.motion.duration_s,
+                    predicted_j,
+                    interval_j: p.interval_j,
+                    simulated_j,
+                    error_pct: 100.0 * (predicted_j - simulated_j) / simulated_j,
+                    braked_s,
+                    flagged: !report.torque_limit_hits.is_empty()
+                        || report.max_tracking_error_rad.is_nan()
+                        || report.max_tracking_error_rad > TRACKING_ERROR_BOUND_RAD,
+                    max_tracking_error_rad: report.max_tracking_error_rad,
+                    torque_limit_hits: report.torque_limit_hits,
+                },
+                ds,
+            ))
+        })
+        .collect::<Result<_>>()?;
+    let mut checks = Vec::with_capacity(out.len());
+    let mut datasets = Vec::with_capacity(out.len());
+    for (c, d) in out {
+        checks.push(c);
+        datasets.push(d);
+    }
+    let mut it = checks.into_iter();
+    let uniform = it
+        .next()
+        .ok_or_else(|| Error::InvalidInput("no plan checked".into()))?;
+    let plans = it
+        .map(|c| {
+            let s = Saving::of(&c, &uniform);
+            (c, s)
+        })
+        .collect();
+    let (runs, brakes): (Vec<TaskRun>, Vec<Vec<BrakeWindow>>) =
+        jobs.into_iter().map(|(_, _, r, w, _)| (r, w)).unzip();
+    Ok(Checked {
+        uniform,
+        plans,
+        datasets,
+        runs,
+        brakes,
+    })
+}
