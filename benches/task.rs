@@ -2,7 +2,9 @@
 //! of the built-in scenario planned at 0.5 m/s with a 4 kg load (linear moves, IK per 2 ms
 //! sample), and the energy an identified model predicts for it with its five payload events
 //! (1 ms integration step). These two run once per sweep cell and 25 times per load in the
-//! optimum search of `reproduce`.
+//! optimum search of `reproduce`. And a whole `optimize` of the task at 2 kg (every segment
+//! priced at the timing grid, the dynamic programme, the least-energy curve; no twin runs),
+//! whose target is under 20 s.
 
 use std::hint::black_box;
 
@@ -30,6 +32,31 @@ fn bench(c: &mut Criterion) {
             model
                 .energy_with_payloads(&robot, &plan.motion, black_box(&plan.events), 1.0, 1e-3)
                 .expect("predicts")
+        })
+    });
+    group.finish();
+    let mut group = c.benchmark_group("optimize");
+    group.sample_size(10);
+    let drive =
+        powertwin::model::drive::Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", &robot)
+            .expect("built-in drive");
+    let task = powertwin::optimize::segment::Task {
+        robot: &robot,
+        scenario: &scenario,
+        load_kg: 2.0,
+        model: &model,
+        efficiency: 1.0,
+    };
+    group.bench_function("pick_and_place_2kg_at_0.5mps_cycle", |b| {
+        b.iter(|| {
+            powertwin::optimize::optimize(
+                &task,
+                black_box(0.5),
+                powertwin::optimize::CycleBound::SlowdownPct(0.0),
+                drive.brakes(),
+                &powertwin::optimize::Options::default(),
+            )
+            .expect("optimises")
         })
     });
     group.finish();

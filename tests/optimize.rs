@@ -173,3 +173,42 @@ fn brakes_hold_only_a_still_arm_of_a_drive_that_has_them() {
         .unwrap_err();
     assert!(e.to_string().contains("[brakes]"), "{e}");
 }
+
+#[test]
+fn optimize_cli_refuses_bad_bounds_and_boxes() {
+    let robot = common::irb1200();
+    let layout = powertwin::dynamics::ParamLayout::new(&robot, true, true);
+    let model = powertwin::identification::model::PowerModel::new(&robot, layout, false).unwrap();
+    let dir = common::tmp("optimize_cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    std::fs::write(&path, serde_json::to_string(&model).unwrap()).unwrap();
+    let m = path.to_str().unwrap();
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    for (args, expect) in [
+        (
+            vec!["--search-offset", "0.1,0.1,0.1"],
+            "--search-offset takes 4 values",
+        ),
+        (vec!["--max-slowdown=-5"], "cycle-time bound"),
+        (
+            vec!["--cycle-time", "1.0"],
+            "shorter than the fastest timing",
+        ),
+        (
+            vec!["--speed", "0"],
+            "TCP speed 0 m/s must be finite and positive",
+        ),
+    ] {
+        let mut all = vec!["optimize", "--model", m, "--out", o];
+        all.extend(args.iter().copied());
+        let (code, _, stderr) = common::run(&all);
+        assert_ne!(code, 0, "{all:?}");
+        assert!(stderr.contains(expect), "{all:?}: {stderr}");
+    }
+    let (code, _, stderr) =
+        common::run(&["optimize", "--model", "/no/such/model.json", "--out", o]);
+    assert_ne!(code, 0);
+    assert!(stderr.contains("/no/such/model.json"), "{stderr}");
+}

@@ -159,6 +159,9 @@ fn check_schema(r: &Value) {
             num(o, key);
         }
         assert!(o["interior"].is_boolean());
+        assert!(o["simulated_near_planner_limit"].is_boolean());
+        assert!(o["predicted"]["on_planner_limit"].is_boolean());
+        num(&o["predicted"], "slowed_segments");
     }
     assert!(r["sweep"]["pareto"].is_array());
     for t in r["timings"].as_array().expect("timings") {

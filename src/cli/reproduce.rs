@@ -299,7 +299,7 @@ fn summary(r: &Results, out: &Path) -> String {
     for opt in &r.sweep.optima {
         outln!(
             o,
-            "  load {} kg: least energy at {} m/s (twin grid{}), model optimum {:.3} m/s",
+            "  load {} kg: least energy at {} m/s (twin grid{}), model optimum {:.3} m/s{}",
             opt.load_kg,
             opt.simulated_cell_m_s,
             if opt.interior {
@@ -307,7 +307,8 @@ fn summary(r: &Results, out: &Path) -> String {
             } else {
                 ", at the edge"
             },
-            opt.predicted_m_s.unwrap_or(f64::NAN)
+            opt.predicted_m_s.unwrap_or(f64::NAN),
+            planner_limit(opt)
         );
     }
     let recording = if cfg!(feature = "viz") {
@@ -322,4 +323,16 @@ fn summary(r: &Results, out: &Path) -> String {
         r.total_wall_s
     );
     o
+}
+
+/// ", on a planner limit (N segments slowed)" when the model's optimum sits where the
+/// planner starts slowing a segment, else nothing.
+pub fn planner_limit(opt: &powertwin::validation::sweep::Optimum) -> String {
+    match opt.predicted {
+        Some(p) if p.on_planner_limit => format!(
+            " (on a planner limit: {} segments slowed for joint limits)",
+            p.slowed_segments
+        ),
+        _ => String::new(),
+    }
 }

@@ -181,8 +181,10 @@ fn table(result: &Sweep) -> String {
             } else {
                 "at the edge of the grid".into()
             },
-            opt.predicted_m_s
-                .map_or(String::new(), |v| format!("; model optimum {v:.3} m/s"))
+            opt.predicted_m_s.map_or(String::new(), |v| format!(
+                "; model optimum {v:.3} m/s{}",
+                crate::cli::reproduce::planner_limit(opt)
+            ))
         );
     }
     o

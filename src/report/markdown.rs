@@ -370,18 +370,26 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             "interpolated m/s",
             "model's optimum m/s",
             "its energy J",
+            "model's optimum on a planner limit",
             "interior",
         ],
     );
     for o in &r.sweep.optima {
         let _ = writeln!(
             w,
-            "| {} | {} | {:.3} | {} | {} | {} |",
+            "| {} | {} | {:.3} | {} | {} | {} | {} |",
             o.load_kg,
             o.simulated_cell_m_s,
             o.simulated_interpolated_m_s,
             opt(o.predicted_m_s, |x| format!("{x:.3}")),
             opt(o.predicted_j, |x| format!("{x:.1}")),
+            match o.predicted {
+                Some(p) if p.on_planner_limit => {
+                    format!("yes ({} segments slowed)", p.slowed_segments)
+                }
+                Some(_) => "no".into(),
+                None => "-".into(),
+            },
             if o.interior { "yes" } else { "no" }
         );
     }
