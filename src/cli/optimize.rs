@@ -260,20 +260,42 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
     #[cfg(feature = "viz")]
     if let Some(viz) = &viz {
         let tcp = scenario.tcp();
-        for (((name, ds), run), _) in traces.iter().zip(&checked.runs).zip(&checked.brakes) {
-            let prefix = format!("optimize/{}", powertwin::viz::path_part(name));
+        let prefixes: Vec<String> = traces
+            .iter()
+            .map(|(name, _)| format!("optimize/{}", powertwin::viz::path_part(name)))
+            .collect();
+        viz.send_blueprint(&[powertwin::viz::Tab::Compare {
+            title: "uniform and optimised plans".into(),
+            prefixes: prefixes.clone(),
+        }])?;
+        for (((prefix, (_, ds)), run), windows) in prefixes
+            .iter()
+            .zip(&traces)
+            .zip(&checked.runs)
+            .zip(&checked.brakes)
+        {
+            let events: Vec<(f64, String)> = windows
+                .iter()
+                .flat_map(|w| {
+                    [
+                        (w.start_s, "brakes hold (servos off)".to_string()),
+                        (w.end_s, "brakes released".to_string()),
+                    ]
+                })
+                .collect();
+            viz.log_events(&events, prefix)?;
             viz.log_run(
                 &setup.robot,
                 ds,
                 None,
-                &prefix,
+                prefix,
                 powertwin::viz::DEFAULT_DISPLAY_HZ,
             )?;
             viz.log_task(
                 &setup.robot,
                 run,
                 &tcp,
-                &prefix,
+                prefix,
                 powertwin::viz::DEFAULT_DISPLAY_HZ,
             )?;
         }

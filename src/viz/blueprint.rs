@@ -35,6 +35,15 @@ pub enum Tab {
         /// Entity roots, one per identified model.
         roots: Vec<String>,
     },
+    /// Runs of the same task compared (e.g. the uniform and the optimised plan), each logged
+    /// under one of `prefixes`: their 3-D views side by side above one plot of every run's
+    /// total power and one of their energies, on the shared `sim_time` timeline.
+    Compare {
+        /// Tab title.
+        title: String,
+        /// Entity prefixes of the runs, one 3-D view each.
+        prefixes: Vec<String>,
+    },
     /// A sweep logged with [`Viz::log_sweep_cells`] under `root`: energy against speed
     /// beside the table of cells.
     Sweep {
@@ -76,6 +85,31 @@ fn tab(tab: &Tab) -> ContainerLike {
             Vertical::new(roots.iter().map(String::as_str).map(parameters))
                 .with_name(title.as_str())
                 .into()
+        }
+        Tab::Compare { title, prefixes } => {
+            let robots = Horizontal::new(prefixes.iter().map(|p| -> ContainerLike {
+                Spatial3DView::new(p.as_str())
+                    .with_origin(entity(p, "robot"))
+                    .into()
+            }));
+            let series = |name: &str, rest: &str| -> ContainerLike {
+                TimeSeriesView::new(name)
+                    .with_origin("/")
+                    .with_contents(
+                        prefixes
+                            .iter()
+                            .map(|p| format!("+ /{}/**", entity(p, rest))),
+                    )
+                    .into()
+            };
+            Vertical::new([
+                robots.into(),
+                series("total power (W)", "power/total"),
+                series("energy (J)", "energy"),
+            ])
+            .with_row_shares([1.4, 1.0, 1.0])
+            .with_name(title.as_str())
+            .into()
         }
         Tab::Sweep { title, root } => {
             let views: [ContainerLike; 2] = [
