@@ -1058,6 +1058,8 @@ fn column_map_toml() {
         ("max_gap_periods = 5.0", "max_gap_periods = 1.0"),
         ("max_lag_s = 2.0", "max_lag_s = -1.0"),
         ("min_piece_samples = 20", "min_piece_samples = 1"),
+        ("max_jitter_periods = 0.25", "max_jitter_periods = nan"),
+        ("max_jitter_periods = 0.25", "max_jitter_periods = -0.25"),
         ("wrapped = [3]", "wrapped = [0]"),
         ("wrapped = [3]", "wrapped = [4]"),
         ("velocity = [\"v1\", \"v2\", \"v3\"]", "velocity = [\"v1\"]"),
