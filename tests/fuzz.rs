@@ -276,6 +276,31 @@ fn decoder_failed(e: &powertwin::Error) -> bool {
     e.to_string().contains("the decoder failed")
 }
 
+/// Decoder panics that a reader caught and returned as errors, counted by cause.
+#[derive(Default)]
+struct Caught(Mutex<std::collections::BTreeMap<String, usize>>);
+
+impl Caught {
+    /// Count `e` if it is a caught decoder panic ([`decoder_failed`]).
+    fn note(&self, e: &powertwin::Error) {
+        let text = e.to_string();
+        if let Some(at) = text.find("the decoder failed (") {
+            let cause = text[at + "the decoder failed (".len()..].trim_end_matches(')');
+            *self.0.lock().unwrap().entry(cause.to_string()).or_default() += 1;
+        }
+    }
+
+    /// Print the count and each cause of `target` to stderr.
+    fn report(self, target: &str) {
+        let causes = self.0.into_inner().unwrap();
+        let total: usize = causes.values().sum();
+        eprintln!("fuzz {target}: {total} decoder panics caught as errors");
+        for (cause, n) in causes {
+            eprintln!("fuzz {target}:   {n} x {cause}");
+        }
+    }
+}
+
 /// Silence the default panic message of caught panics (they are collected and reported).
 fn quiet_panics() {
     static ONCE: std::sync::Once = std::sync::Once::new();
@@ -497,7 +522,7 @@ fn fuzz_dataset(format: Format, label: &str, default_cases: usize) {
             files.iter().filter(|(f, _)| f != file).cloned().collect();
         let target = format!("{label}-{file}");
         let count = cases(default_cases);
-        let caught = AtomicUsize::new(0);
+        let caught = Caught::default();
         fuzz(&target, std::slice::from_ref(bytes), count, |b| {
             let case = common::tmp(&format!(
                 "fuzz-{label}-{k}-{:?}",
@@ -508,16 +533,11 @@ fn fuzz_dataset(format: Format, label: &str, default_cases: usize) {
                 std::fs::write(case.join(f), other).unwrap();
             }
             std::fs::write(case.join(file), b).unwrap();
-            if let Err(e) = Dataset::read(&case)
-                && decoder_failed(&e)
-            {
-                caught.fetch_add(1, Ordering::Relaxed);
+            if let Err(e) = Dataset::read(&case) {
+                caught.note(&e);
             }
         });
-        eprintln!(
-            "fuzz {target}: {} decoder panics caught as errors",
-            caught.into_inner()
-        );
+        caught.report(&target);
         // A truncated file is an error, never a dataset.
         let case = common::tmp(&format!("fuzz-{label}-{k}-truncated"));
         std::fs::create_dir_all(&case).unwrap();
@@ -852,7 +872,7 @@ fn fuzz_log(
     count: usize,
 ) {
     let opts = ReadOptions { power: None, lag };
-    let (read, caught) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    let (read, caught) = (AtomicUsize::new(0), Caught::default());
     for seed in seeds {
         let path = common::tmp(&format!("fuzz-{target}-seed.{ext}"));
         std::fs::write(&path, seed).unwrap();
@@ -867,16 +887,17 @@ fn fuzz_log(
         ));
         std::fs::write(&path, b).unwrap();
         match read_log(&path, map, &opts) {
-            Ok(_) => read.fetch_add(1, Ordering::Relaxed),
-            Err(e) if decoder_failed(&e) => caught.fetch_add(1, Ordering::Relaxed),
-            Err(_) => 0,
-        };
+            Ok(_) => {
+                read.fetch_add(1, Ordering::Relaxed);
+            }
+            Err(e) => caught.note(&e),
+        }
     });
     eprintln!(
-        "fuzz {target}: {} of {count} mutated logs read, {} decoder panics caught as errors",
-        read.into_inner(),
-        caught.into_inner()
+        "fuzz {target}: {} of {count} mutated logs read",
+        read.into_inner()
     );
+    caught.report(target);
 }
 
 #[test]
@@ -951,6 +972,25 @@ fn log_csv_reader() {
         read_log(&path, None, &ReadOptions::default()).is_err(),
         "one data row"
     );
+    let path = common::tmp("fuzz-log-lag.csv");
+    std::fs::write(&path, &good).unwrap();
+    let lag = ReadOptions {
+        power: None,
+        lag: LagOption::Fixed(1e3),
+    };
+    assert!(
+        read_log(&path, None, &lag).is_err(),
+        "a lag longer than the log"
+    );
+    // A mutated log of the long run whose two data rows are short (missing cells): with
+    // `drop_missing` no row was left and the reader indexed the empty time column.
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz_log_missing_cells_only.csv");
+    let map = ColumnMap::from_toml_str(COLUMN_MAPS[1], "map").unwrap();
+    let err = read_log(&path, Some(&map), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("2 of 2 data rows have missing cells"), "{err}");
 }
 
 #[test]

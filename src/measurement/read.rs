@@ -590,6 +590,13 @@ pub fn read_log(
                 .collect();
         }
         file_rows.retain(|&k| keep[k]);
+        if file_rows.len() < 2 {
+            return Err(Error::InvalidInput(format!(
+                "{label}: {} of {rows} data rows have missing cells; dropping them leaves {}, and a log needs at least 2",
+                bad_rows.len(),
+                file_rows.len()
+            )));
+        }
     }
     // Units to SI.
     let deg = std::f64::consts::PI / 180.0;
@@ -726,6 +733,11 @@ pub fn read_log(
             *p = s;
         }
         pieces.retain(|p| p.len() >= 2);
+        if pieces.is_empty() {
+            return Err(Error::InvalidInput(format!(
+                "{label}: a power lag of {lag_applied_s} s leaves no two samples whose shifted time lies inside the log"
+            )));
+        }
     }
     let split_source = pieces.len() > 1;
     let logs: Vec<Log> = pieces
