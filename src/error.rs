@@ -102,6 +102,21 @@ impl Error {
     }
 }
 
+/// Run `decode`, a dependency's decoder on a user's file, and turn a panic inside it into
+/// `Err` with the panic's message. The Parquet decoder (parquet 58.4.1) panics on some
+/// corrupt files (found by `tests/fuzz.rs`); a corrupt file must be an error, not a crash.
+/// The panic hook still runs (by default it prints the message to stderr).
+pub(crate) fn catch_decoder_panic<T>(decode: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode)).map_err(|panic| {
+        panic
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| panic.downcast_ref::<&str>().copied())
+            .unwrap_or("unknown cause")
+            .to_string()
+    })
+}
+
 /// Check that every value of a slice is finite; `what` names the quantity in the message.
 pub fn ensure_finite(values: &[f64], what: &str) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {

@@ -3,13 +3,13 @@
 
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
 use powertwin::dynamics::{DriveTerms, ParamLayout};
+use powertwin::identification::consistency::consistency;
 use powertwin::identification::excitation::{Observation, identifiable_columns};
 use powertwin::identification::model::PowerModel;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::sampling::StateSampler;
 use powertwin::model::urdf::{LoadOptions, load_str};
-use powertwin::validation::params::consistency;
 
 const URDF: &str = include_str!("../models/irb1200_7_70.urdf");
 const J1_LIMITS: &str = r#"lower="-2.967059728" upper="2.967059728""#;

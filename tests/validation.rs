@@ -6,6 +6,7 @@ mod common;
 
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
 use powertwin::dynamics::{DriveTerms, ParamLayout};
+use powertwin::identification::consistency::consistency;
 use powertwin::identification::last_link::{affected, reidentify};
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::states::from_fourier;
@@ -15,7 +16,7 @@ use powertwin::model::drive::Drive;
 use powertwin::model::payload::PayloadEvent;
 use powertwin::model::payload::attach;
 use powertwin::trajectory::random::{RandomFourierOptions, random_fourier};
-use powertwin::validation::params::{consistency, table};
+use powertwin::validation::score::table;
 
 fn drive(robot: &Robot) -> Drive {
     Drive::from_toml_str(builtin::IRB1200_DRIVE, "drive", robot).unwrap()

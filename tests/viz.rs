@@ -10,7 +10,7 @@ use common::rrd;
 use powertwin::Robot;
 use powertwin::trajectory::task::Scenario;
 use powertwin::twin::record::{Measured, Recording};
-use powertwin::validation::params::ParamRow;
+use powertwin::validation::score::ParamRow;
 use powertwin::validation::sweep::Cell;
 use powertwin::viz::{DEFAULT_DISPLAY_HZ, EVENTS_ENTITY, SPEED_TIMELINE, Sink, TIMELINE, Tab, Viz};
 

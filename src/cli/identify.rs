@@ -9,6 +9,7 @@ use clap::{Args, ValueEnum};
 use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
+use powertwin::identification::consistency::consistency;
 use powertwin::identification::data::{Prepared, Route, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
 use powertwin::identification::fit::{Estimator, FitOptions, identify_logs};
@@ -21,7 +22,6 @@ use powertwin::measurement::Log;
 use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
-use powertwin::validation::params::consistency;
 use serde_json::json;
 
 use super::log::{LogArgs, load_logs};

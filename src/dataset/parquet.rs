@@ -23,7 +23,7 @@ use parquet::basic::{Compression, Encoding};
 use parquet::file::properties::WriterProperties;
 
 use crate::dataset::columns;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, catch_decoder_panic};
 
 /// Rows per Arrow batch when writing and reading (bounds the per-batch copy).
 const BATCH_ROWS: usize = 65_536;
@@ -78,15 +78,7 @@ pub(crate) fn write(path: &Path, names: &[String], cols: &[&[f64]]) -> Result<()
 /// 30,000 mutated `measured.parquet` files); such a panic is caught and reported as an
 /// [`Error::Dataset`] like any other unreadable file.
 pub(crate) fn read(path: &Path, expected: &[String]) -> Result<Vec<Vec<f64>>> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        read_unchecked(path, expected)
-    }))
-    .unwrap_or_else(|panic| {
-        let why = panic
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| panic.downcast_ref::<&str>().copied())
-            .unwrap_or("unknown cause");
+    catch_decoder_panic(|| read_unchecked(path, expected)).unwrap_or_else(|why| {
         Err(Error::Dataset {
             path: path.to_path_buf(),
             message: format!("corrupt Parquet file: the decoder failed ({why})"),

@@ -298,6 +298,7 @@ impl CleanOptions {
             ("max_lag_s", self.max_lag_s),
             ("rest_speed_rad_s", self.rest_speed_rad_s),
             ("long_rest_s", self.long_rest_s),
+            ("max_jitter_periods", self.max_jitter_periods),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(format!("{name} = {v} must be finite and >= 0"));

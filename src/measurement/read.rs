@@ -17,6 +17,7 @@
 //!   the header being row 1) and as `data row N` (1-based) for Parquet.
 //! - The time base is then repaired ([`crate::measurement::clean`]), the power-vs-joint lag
 //!   estimated and, if asked, applied ([`crate::measurement::lag`]).
+//! - A corrupt Parquet file is an error, also where the Parquet decoder panics on it.
 
 use std::fmt;
 use std::fs::File;
@@ -35,7 +36,7 @@ use arrow_schema::DataType;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde::Serialize;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, catch_decoder_panic};
 use crate::measurement::clean::{self, Frame, median_period};
 use crate::measurement::columns::{
     AngleUnit, ColumnMap, PowerKind, PowerSource, PowerUnit, RateUnit, TimeUnit,
@@ -223,12 +224,24 @@ fn csv_reader(path: &Path, delim: u8) -> Result<csv::Reader<File>> {
         .from_reader(file))
 }
 
+/// Run a Parquet read of the file `label`; a panic of the decoder (some corrupt files make
+/// parquet 58.4.1 panic) becomes an error like any other unreadable file.
+fn guarded<T>(label: &str, read: impl FnOnce() -> Result<T>) -> Result<T> {
+    catch_decoder_panic(read).unwrap_or_else(|why| {
+        Err(Error::InvalidInput(format!(
+            "{label}: corrupt Parquet file: the decoder failed ({why})"
+        )))
+    })
+}
+
 /// Column names of the file.
 fn headers(path: &Path, label: &str, parquet: bool, delim: u8) -> Result<Vec<String>> {
     if parquet {
         let file = File::open(path).map_err(|e| Error::io(path, e))?;
-        let b = ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| {
-            Error::InvalidInput(format!("{label}: not a readable Parquet file: {e}"))
+        let b = guarded(label, || {
+            ParquetRecordBatchReaderBuilder::try_new(file).map_err(|e| {
+                Error::InvalidInput(format!("{label}: not a readable Parquet file: {e}"))
+            })
         })?;
         Ok(b.schema()
             .fields()
@@ -529,7 +542,9 @@ pub fn read_log(
         )));
     }
     let mut cols = if parquet {
-        read_parquet(path, &label, &wanted, 0, map.time.unit)?
+        guarded(&label, || {
+            read_parquet(path, &label, &wanted, 0, map.time.unit)
+        })?
     } else {
         read_csv(path, &label, delim, &wanted, 0, map.time.unit)?
     };
@@ -575,6 +590,13 @@ pub fn read_log(
                 .collect();
         }
         file_rows.retain(|&k| keep[k]);
+        if file_rows.len() < 2 {
+            return Err(Error::InvalidInput(format!(
+                "{label}: {} of {rows} data rows have missing cells; dropping them leaves {}, and a log needs at least 2",
+                bad_rows.len(),
+                file_rows.len()
+            )));
+        }
     }
     // Units to SI.
     let deg = std::f64::consts::PI / 180.0;
@@ -711,6 +733,11 @@ pub fn read_log(
             *p = s;
         }
         pieces.retain(|p| p.len() >= 2);
+        if pieces.is_empty() {
+            return Err(Error::InvalidInput(format!(
+                "{label}: a power lag of {lag_applied_s} s leaves no two samples whose shifted time lies inside the log"
+            )));
+        }
     }
     let split_source = pieces.len() > 1;
     let logs: Vec<Log> = pieces

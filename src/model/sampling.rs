@@ -1,7 +1,7 @@
 //! Seeded random joint states within a robot's limits: the one sampler behind the base-
 //! parameter stack ([`crate::dynamics::base_params`]), the identifiability scan of excitation
 //! design ([`crate::identification::excitation`]) and the consistency check's random poses
-//! ([`crate::validation::params`]).
+//! ([`crate::identification::consistency`]).
 //!
 //! Positions are uniform in the joint's position window ([`position_window`]): the limits,
 //! narrowed to a 2 pi wide window when they are wider (a revolute joint shows every pose

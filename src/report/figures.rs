@@ -117,7 +117,7 @@ fn error_per_cell(outcome: &Outcome) -> Figure {
 /// interval half-width (in % of the true energy) beside them.
 fn heldout(outcome: &Outcome) -> Figure {
     let m = &outcome.heldout.motions;
-    let pct = |f: &dyn Fn(&crate::validation::heldout::MotionResult) -> f64| -> Vec<f64> {
+    let pct = |f: &dyn Fn(&crate::validation::score::MotionResult) -> f64| -> Vec<f64> {
         m.iter().map(f).collect()
     };
     let chart = Chart::new(

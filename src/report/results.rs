@@ -6,11 +6,12 @@
 use serde::Serialize;
 
 use crate::dataset::meta::Program;
+use crate::identification::consistency::Consistency;
 use crate::identification::fit::CvScore;
 use crate::validation::heldout::Heldout;
-use crate::validation::params::{Consistency, ParamRow};
 use crate::validation::payloads::CaseRow;
 use crate::validation::reproduce::{Outcome, StageTime};
+use crate::validation::score::ParamRow;
 use crate::validation::sweep::{Cell, Optimum};
 
 /// Version of this schema; bumped on any incompatible change.

@@ -14,13 +14,14 @@ use serde::Serialize;
 
 use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
+use crate::identification::consistency::{Consistency, consistency};
 use crate::identification::linear::{self, Observation};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use crate::identification::pmsm;
 use crate::identification::states::States;
-use crate::validation::params::{Consistency, ParamRow, consistency, table};
 use crate::validation::rig::Rig;
+use crate::validation::score::{ParamRow, energy_error_pct, table};
 use crate::validation::steps::Steps;
 
 /// Samples at which an excited joint moves slower than this (rad/s) are left out of the
@@ -92,7 +93,7 @@ pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
             for (row, traj) in steps.rows.iter().zip(&steps.trajectories) {
                 let e = model.energy(robot, traj, rig.twin.physics.dt)?;
                 predicted_j.push(e);
-                error_pct.push(100.0 * (e - row.simulated_j) / row.simulated_j);
+                error_pct.push(energy_error_pct(e, row.simulated_j));
             }
             let refs: Vec<&Estimate> = estimates.iter().collect();
             let parameters = table(robot, rig.drive, &model, &refs)?;

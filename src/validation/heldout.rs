@@ -4,7 +4,7 @@
 //! predicted by an identified model from the logged stream (states smoothed from the 10 Hz
 //! positions) and from the commanded trajectory. The twin's truth only scores.
 //!
-//! Per motion: the error of the predicted energy (of the measured signal) and of the energy
+//! Per motion ([`score::heldout_motion`]): the error of the predicted energy (of the measured signal) and of the energy
 //! above standby, the mean-power error, the power RMSE at the logged samples, whether the
 //! 95 % interval covers the truth, and the same for a baseline a user has without
 //! identification: the URDF's rigid bodies and friction with the data-sheet efficiency.
@@ -17,7 +17,7 @@ use serde::Serialize;
 use crate::dataset::Dataset;
 use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
-use crate::identification::data::{Route, prepare};
+use crate::identification::data::Route;
 use crate::identification::model::PowerModel;
 use crate::kinematics::fk::flange_pose;
 use crate::model::Robot;
@@ -29,6 +29,7 @@ use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
 use crate::validation::rig::{Progress, Rig};
+use crate::validation::score::{self, MotionResult, RouteSummary, Spread};
 
 /// Route from a logged stream to states for prediction: a local quartic through 5 samples
 /// (an interpolating fit: encoder noise is far below what a 10 Hz differentiation amplifies).
@@ -213,123 +214,6 @@ fn linear<R: Rng + ?Sized>(
     Err(last.unwrap_or_else(|| Error::InvalidInput("no linear move found".into())))
 }
 
-/// Scores of one prediction.
-#[derive(Debug, Clone, Serialize)]
-pub struct Scores {
-    /// Predicted energy of the measured signal, J.
-    #[serde(rename = "predicted_J")]
-    pub predicted_j: f64,
-    /// Half-width of its 95 % interval, J.
-    #[serde(rename = "interval_95_J")]
-    pub interval_j: f64,
-    /// `100 (predicted - true) / true`, %.
-    pub energy_error_pct: f64,
-    /// Error relative to the true energy above standby, %.
-    pub above_standby_error_pct: f64,
-    /// `(predicted - true) / duration`, W.
-    #[serde(rename = "mean_power_error_W")]
-    pub mean_power_error_w: f64,
-    /// Whether the 95 % interval holds the true energy.
-    pub covered: bool,
-}
-
-/// One motion's result.
-#[derive(Debug, Clone, Serialize)]
-pub struct MotionResult {
-    /// 1-based index.
-    pub index: usize,
-    /// Kind of motion.
-    pub kind: String,
-    /// Payload mass, kg.
-    pub payload_kg: f64,
-    /// TCP speed of a linear motion, m/s.
-    pub tcp_speed_m_s: Option<f64>,
-    /// Duration of the logged span, s.
-    pub duration_s: f64,
-    /// True energy of the measured signal over the logged span, J (twin truth).
-    #[serde(rename = "true_J")]
-    pub true_j: f64,
-    /// True standby energy over the span, J (twin truth).
-    #[serde(rename = "true_standby_J")]
-    pub standby_j: f64,
-    /// Prediction from the logged positions.
-    pub from_log: Scores,
-    /// Prediction from the commanded trajectory (true energy over the whole run).
-    pub from_plan: Scores,
-    /// The baseline (URDF + data-sheet efficiency) from the logged positions.
-    pub baseline: Scores,
-    /// RMS of predicted minus measured power at the logged samples, W.
-    #[serde(rename = "power_rmse_W")]
-    pub power_rmse_w: f64,
-    /// The same for the baseline, W.
-    #[serde(rename = "baseline_power_rmse_W")]
-    pub baseline_power_rmse_w: f64,
-    /// Largest tracking error of the twin run, rad.
-    pub max_tracking_error_rad: f64,
-}
-
-/// Median, 95th percentile and worst of a metric's absolute values.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct Spread {
-    /// Median.
-    pub median: f64,
-    /// 95th percentile (nearest rank).
-    pub p95: f64,
-    /// Largest.
-    pub worst: f64,
-}
-
-impl Spread {
-    /// Of the absolute values of `v` (zeros when empty).
-    pub fn of(v: impl IntoIterator<Item = f64>) -> Spread {
-        let mut a: Vec<f64> = v.into_iter().map(f64::abs).collect();
-        if a.is_empty() {
-            return Spread {
-                median: 0.0,
-                p95: 0.0,
-                worst: 0.0,
-            };
-        }
-        a.sort_by(f64::total_cmp);
-        let rank = |p: f64| a[((p * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1];
-        Spread {
-            median: if a.len() % 2 == 1 {
-                a[a.len() / 2]
-            } else {
-                0.5 * (a[a.len() / 2 - 1] + a[a.len() / 2])
-            },
-            p95: rank(0.95),
-            worst: a[a.len() - 1],
-        }
-    }
-}
-
-/// Summary of one prediction route over all motions.
-#[derive(Debug, Clone, Serialize)]
-pub struct RouteSummary {
-    /// Energy error, %.
-    pub energy_error_pct: Spread,
-    /// Error of the energy above standby, %.
-    pub above_standby_error_pct: Spread,
-    /// Mean-power error, W.
-    #[serde(rename = "mean_power_error_W")]
-    pub mean_power_error_w: Spread,
-    /// Share of motions whose 95 % interval holds the truth, %.
-    pub coverage_pct: f64,
-}
-
-impl RouteSummary {
-    fn of<'a>(scores: impl Iterator<Item = &'a Scores> + Clone) -> RouteSummary {
-        let count = scores.clone().count().max(1) as f64;
-        RouteSummary {
-            energy_error_pct: Spread::of(scores.clone().map(|s| s.energy_error_pct)),
-            above_standby_error_pct: Spread::of(scores.clone().map(|s| s.above_standby_error_pct)),
-            mean_power_error_w: Spread::of(scores.clone().map(|s| s.mean_power_error_w)),
-            coverage_pct: 100.0 * scores.filter(|s| s.covered).count() as f64 / count,
-        }
-    }
-}
-
 /// The benchmark's outcome.
 #[derive(Debug, Clone, Serialize)]
 pub struct Heldout {
@@ -379,7 +263,6 @@ pub fn run(
     let robot = rig.robot;
     let list = motions(robot, opts)?;
     let base_model = baseline(robot, model, opts.baseline_efficiency)?;
-    let standby_w: f64 = rig.drive.joints().iter().map(|j| j.standby_power).sum();
     progress.stage("held-out motions: twin runs and predictions", list.len());
     let out: Vec<(MotionResult, Dataset)> = list
         .par_iter()
@@ -400,7 +283,7 @@ pub fn run(
                     description,
                 )
                 .map_err(|e| e.context(&format!("held-out motion {}", k + 1)))?;
-            let r = score(rig, model, &base_model, standby_w, k, m, &ds, opts)?;
+            let r = score::heldout_motion(rig, model, &base_model, k, m, &ds, opts)?;
             progress.advance();
             Ok((r, ds))
         })
@@ -416,89 +299,4 @@ pub fn run(
         motions,
     };
     Ok((h, datasets))
-}
-
-/// Score one motion's run.
-#[allow(clippy::too_many_arguments)]
-fn score(
-    rig: &Rig,
-    model: &PowerModel,
-    base_model: &PowerModel,
-    standby_w: f64,
-    k: usize,
-    m: &Motion,
-    ds: &Dataset,
-    opts: &HeldoutOptions,
-) -> Result<MotionResult> {
-    let robot = rig.robot;
-    let dt = rig.twin.physics.dt;
-    let clipped = model.signal.clipped();
-    let truth = &ds.truth;
-    let signal = if clipped {
-        &truth.p_grid
-    } else {
-        &truth.p_total
-    };
-    // Truth over the logged span [t_0, t_last) and over the whole run.
-    let log = ds.log(&format!("held-out motion {}", k + 1))?;
-    let (t0, t1) = (log.t_s[0], log.t_s[log.len() - 1]);
-    let span: f64 = truth
-        .t
-        .iter()
-        .zip(signal)
-        .filter(|(t, _)| **t >= t0 - 1e-9 && **t < t1 - 1e-9)
-        .map(|(_, p)| p * dt)
-        .sum();
-    let whole: f64 = signal.iter().sum::<f64>() * dt;
-    let prepared = prepare(&log, opts.route)?;
-    let scores = |pred: crate::identification::model::Prediction, truth_j: f64, dur: f64| {
-        let err = pred.energy_j - truth_j;
-        Scores {
-            predicted_j: pred.energy_j,
-            interval_j: pred.interval_j,
-            energy_error_pct: 100.0 * err / truth_j,
-            above_standby_error_pct: 100.0 * err / (truth_j - standby_w * dur),
-            mean_power_error_w: err / dur,
-            covered: err.abs() <= pred.interval_j,
-        }
-    };
-    let eff = opts.baseline_efficiency;
-    let span_s = t1 - t0;
-    let events = prepared.motion_events();
-    let from_log = model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
-    let from_plan = model.predict(robot, m.trajectory.as_ref(), &m.events, eff, dt)?;
-    let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
-    let rmse = |mm: &PowerModel| -> Result<f64> {
-        let t: Vec<f64> = log.t_s.iter().map(|t| t - prepared.motion_t0_s).collect();
-        let p = mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &t)?;
-        let se: f64 = p
-            .iter()
-            .zip(&log.power_w)
-            .map(|(p, y)| {
-                let p = if clipped { p.max(0.0) } else { *p };
-                (p - y).powi(2)
-            })
-            .sum();
-        Ok((se / log.len() as f64).sqrt())
-    };
-    Ok(MotionResult {
-        index: k + 1,
-        kind: m.kind.to_string(),
-        payload_kg: m.payload_kg,
-        tcp_speed_m_s: m.tcp_speed_m_s,
-        duration_s: span_s,
-        true_j: span,
-        standby_j: standby_w * span_s,
-        from_log: scores(from_log, span, span_s),
-        from_plan: scores(from_plan, whole, ds.meta.summary.duration_s),
-        baseline: scores(base, span, span_s),
-        power_rmse_w: rmse(model)?,
-        baseline_power_rmse_w: rmse(base_model)?,
-        max_tracking_error_rad: truth
-            .q
-            .iter()
-            .zip(&truth.q_ref)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-            .fold(0.0, f64::max),
-    })
 }

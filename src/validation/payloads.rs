@@ -17,6 +17,7 @@ use crate::model::payload::Payload;
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
 use crate::validation::rig::{Progress, Rig};
+use crate::validation::score::energy_error_pct;
 
 /// One row of Table 4.
 #[derive(Debug, Clone, Serialize)]
@@ -95,7 +96,6 @@ pub fn run(
             let known_payload_j = known
                 .energy_with_payloads(robot, traj, &events, efficiency, dt)?
                 .motor_j;
-            let pct = |e: f64| 100.0 * (e - simulated_j) / simulated_j;
             progress.advance();
             Ok((
                 CaseRow {
@@ -103,10 +103,10 @@ pub fn run(
                     payload_kg: payload.as_ref().map_or(0.0, |p| p.inertia.mass),
                     simulated_j,
                     reidentified_j,
-                    reidentified_error_pct: pct(reidentified_j),
+                    reidentified_error_pct: energy_error_pct(reidentified_j, simulated_j),
                     estimate,
                     known_payload_j,
-                    known_payload_error_pct: pct(known_payload_j),
+                    known_payload_error_pct: energy_error_pct(known_payload_j, simulated_j),
                 },
                 ds,
             ))

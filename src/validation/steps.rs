@@ -17,6 +17,7 @@ use crate::identification::model::PowerModel;
 use crate::identification::steps::{StepData, hold_still, identify};
 use crate::trajectory::fourier::Fourier;
 use crate::validation::rig::{Progress, Rig};
+use crate::validation::score::energy_error_pct;
 
 /// Settings of the six steps.
 #[derive(Debug, Clone, PartialEq)]
@@ -144,7 +145,7 @@ pub fn run(rig: &Rig, opts: &StepsOptions, progress: &dyn Progress) -> Result<St
             estimate,
             simulated_j,
             predicted_j,
-            error_pct: 100.0 * (predicted_j - simulated_j) / simulated_j,
+            error_pct: energy_error_pct(predicted_j, simulated_j),
         });
     }
     let (trajectories, datasets) = runs

@@ -5,7 +5,7 @@ use rerun::{BarChart, Points3D, TextDocument, TextLog, TimeColumn};
 
 use super::{EVENTS_ENTITY, SPEED_TIMELINE, TIMELINE, Viz, entity, path_part, viz_err};
 use crate::error::{Error, Result, ensure_finite};
-use crate::validation::params::ParamRow;
+use crate::validation::score::ParamRow;
 use crate::validation::sweep::{Cell, distinct};
 
 /// Display radius of labelled points, m.

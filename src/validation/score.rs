@@ -1,0 +1,305 @@
+//! Scoring against the twin's truth, the only place experiments compare with it. Nothing here
+//! feeds back into identification (which chooses its estimator by cross-validation on logs).
+//!
+//! * [`energy_error_pct`]: a predicted energy against the simulated one (Tables 3 and 4, the
+//!   estimators).
+//! * [`heldout_motion`]: one held-out motion's predictions ([`Scores`] per route,
+//!   [`MotionResult`]), and their spread over motions ([`Spread`], [`RouteSummary`]).
+//! * [`table`]: identified against true base parameters (Table 2, [`ParamRow`]).
+
+use serde::Serialize;
+
+use crate::dataset::Dataset;
+use crate::dynamics::DriveTerms;
+use crate::error::Result;
+use crate::identification::data::prepare;
+use crate::identification::lsq::Estimate;
+use crate::identification::model::{PowerModel, Prediction};
+use crate::model::Robot;
+use crate::model::drive::Drive;
+use crate::validation::heldout::{HeldoutOptions, Motion};
+use crate::validation::rig::Rig;
+
+/// True values below this fraction of the largest true value of the same kind are "zero":
+/// their relative error is not reported.
+const NEGLIGIBLE: f64 = 1e-9;
+
+/// Error of a predicted energy against the true (simulated) one, J each:
+/// `100 (predicted - truth) / truth`, %.
+pub fn energy_error_pct(predicted_j: f64, truth_j: f64) -> f64 {
+    100.0 * (predicted_j - truth_j) / truth_j
+}
+
+/// Scores of one prediction.
+#[derive(Debug, Clone, Serialize)]
+pub struct Scores {
+    /// Predicted energy of the measured signal, J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Half-width of its 95 % interval, J.
+    #[serde(rename = "interval_95_J")]
+    pub interval_j: f64,
+    /// `100 (predicted - true) / true`, %.
+    pub energy_error_pct: f64,
+    /// Error relative to the true energy above standby, %.
+    pub above_standby_error_pct: f64,
+    /// `(predicted - true) / duration`, W.
+    #[serde(rename = "mean_power_error_W")]
+    pub mean_power_error_w: f64,
+    /// Whether the 95 % interval holds the true energy.
+    pub covered: bool,
+}
+
+impl Scores {
+    /// `prediction` against the true energy `truth_j` (J) over `duration_s` (s), of which
+    /// `standby_w` (W, summed over the drives) is standby.
+    fn of(prediction: &Prediction, truth_j: f64, duration_s: f64, standby_w: f64) -> Scores {
+        let err = prediction.energy_j - truth_j;
+        Scores {
+            predicted_j: prediction.energy_j,
+            interval_j: prediction.interval_j,
+            energy_error_pct: energy_error_pct(prediction.energy_j, truth_j),
+            above_standby_error_pct: 100.0 * err / (truth_j - standby_w * duration_s),
+            mean_power_error_w: err / duration_s,
+            covered: err.abs() <= prediction.interval_j,
+        }
+    }
+}
+
+/// One held-out motion's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionResult {
+    /// 1-based index.
+    pub index: usize,
+    /// Kind of motion.
+    pub kind: String,
+    /// Payload mass, kg.
+    pub payload_kg: f64,
+    /// TCP speed of a linear motion, m/s.
+    pub tcp_speed_m_s: Option<f64>,
+    /// Duration of the logged span, s.
+    pub duration_s: f64,
+    /// True energy of the measured signal over the logged span, J (twin truth).
+    #[serde(rename = "true_J")]
+    pub true_j: f64,
+    /// True standby energy over the span, J (twin truth).
+    #[serde(rename = "true_standby_J")]
+    pub standby_j: f64,
+    /// Prediction from the logged positions.
+    pub from_log: Scores,
+    /// Prediction from the commanded trajectory (true energy over the whole run).
+    pub from_plan: Scores,
+    /// The baseline (URDF + data-sheet efficiency) from the logged positions.
+    pub baseline: Scores,
+    /// RMS of predicted minus measured power at the logged samples, W.
+    #[serde(rename = "power_rmse_W")]
+    pub power_rmse_w: f64,
+    /// The same for the baseline, W.
+    #[serde(rename = "baseline_power_rmse_W")]
+    pub baseline_power_rmse_w: f64,
+    /// Largest tracking error of the twin run, rad.
+    pub max_tracking_error_rad: f64,
+}
+
+/// Median, 95th percentile and worst of a metric's absolute values.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Spread {
+    /// Median.
+    pub median: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+    /// Largest.
+    pub worst: f64,
+}
+
+impl Spread {
+    /// Of the absolute values of `v` (zeros when empty).
+    pub fn of(v: impl IntoIterator<Item = f64>) -> Spread {
+        let mut a: Vec<f64> = v.into_iter().map(f64::abs).collect();
+        if a.is_empty() {
+            return Spread {
+                median: 0.0,
+                p95: 0.0,
+                worst: 0.0,
+            };
+        }
+        a.sort_by(f64::total_cmp);
+        let rank = |p: f64| a[((p * a.len() as f64).ceil() as usize).clamp(1, a.len()) - 1];
+        Spread {
+            median: if a.len() % 2 == 1 {
+                a[a.len() / 2]
+            } else {
+                0.5 * (a[a.len() / 2 - 1] + a[a.len() / 2])
+            },
+            p95: rank(0.95),
+            worst: a[a.len() - 1],
+        }
+    }
+}
+
+/// Summary of one prediction route over all motions.
+#[derive(Debug, Clone, Serialize)]
+pub struct RouteSummary {
+    /// Energy error, %.
+    pub energy_error_pct: Spread,
+    /// Error of the energy above standby, %.
+    pub above_standby_error_pct: Spread,
+    /// Mean-power error, W.
+    #[serde(rename = "mean_power_error_W")]
+    pub mean_power_error_w: Spread,
+    /// Share of motions whose 95 % interval holds the truth, %.
+    pub coverage_pct: f64,
+}
+
+impl RouteSummary {
+    /// Of one route's scores over the motions.
+    pub fn of<'a>(scores: impl Iterator<Item = &'a Scores> + Clone) -> RouteSummary {
+        let count = scores.clone().count().max(1) as f64;
+        RouteSummary {
+            energy_error_pct: Spread::of(scores.clone().map(|s| s.energy_error_pct)),
+            above_standby_error_pct: Spread::of(scores.clone().map(|s| s.above_standby_error_pct)),
+            mean_power_error_w: Spread::of(scores.clone().map(|s| s.mean_power_error_w)),
+            coverage_pct: 100.0 * scores.filter(|s| s.covered).count() as f64 / count,
+        }
+    }
+}
+
+/// Score held-out motion `m` (0-based index `k`) and its twin run `ds` on `rig`: `model`
+/// predicts from the logged stream (states through `opts.route`) and from the commanded
+/// trajectory, `base_model` (the baseline) from the logged stream; known payloads enter
+/// with `opts.baseline_efficiency`. The truth is the twin's measured signal (the motor sum,
+/// or the grid-side power for a clipped model) integrated over the logged span
+/// `[t_0, t_last)` for the log routes and over the whole run for the plan, and the drives'
+/// standby power.
+pub fn heldout_motion(
+    rig: &Rig,
+    model: &PowerModel,
+    base_model: &PowerModel,
+    k: usize,
+    m: &Motion,
+    ds: &Dataset,
+    opts: &HeldoutOptions,
+) -> Result<MotionResult> {
+    let robot = rig.robot;
+    let dt = rig.twin.physics.dt;
+    let standby_w: f64 = rig.drive.joints().iter().map(|j| j.standby_power).sum();
+    let clipped = model.signal.clipped();
+    let truth = &ds.truth;
+    let signal = if clipped {
+        &truth.p_grid
+    } else {
+        &truth.p_total
+    };
+    // Truth over the logged span [t_0, t_last) and over the whole run.
+    let log = ds.log(&format!("held-out motion {}", k + 1))?;
+    let (t0, t1) = (log.t_s[0], log.t_s[log.len() - 1]);
+    let span: f64 = truth
+        .t
+        .iter()
+        .zip(signal)
+        .filter(|(t, _)| **t >= t0 - 1e-9 && **t < t1 - 1e-9)
+        .map(|(_, p)| p * dt)
+        .sum();
+    let whole: f64 = signal.iter().sum::<f64>() * dt;
+    let prepared = prepare(&log, opts.route)?;
+    let eff = opts.baseline_efficiency;
+    let span_s = t1 - t0;
+    let events = prepared.motion_events();
+    let from_log = model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
+    let from_plan = model.predict(robot, m.trajectory.as_ref(), &m.events, eff, dt)?;
+    let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
+    let rmse = |mm: &PowerModel| -> Result<f64> {
+        let t: Vec<f64> = log.t_s.iter().map(|t| t - prepared.motion_t0_s).collect();
+        let p = mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &t)?;
+        let se: f64 = p
+            .iter()
+            .zip(&log.power_w)
+            .map(|(p, y)| {
+                let p = if clipped { p.max(0.0) } else { *p };
+                (p - y).powi(2)
+            })
+            .sum();
+        Ok((se / log.len() as f64).sqrt())
+    };
+    Ok(MotionResult {
+        index: k + 1,
+        kind: m.kind.to_string(),
+        payload_kg: m.payload_kg,
+        tcp_speed_m_s: m.tcp_speed_m_s,
+        duration_s: span_s,
+        true_j: span,
+        standby_j: standby_w * span_s,
+        from_log: Scores::of(&from_log, span, span_s, standby_w),
+        from_plan: Scores::of(&from_plan, whole, ds.meta.summary.duration_s, standby_w),
+        baseline: Scores::of(&base, span, span_s, standby_w),
+        power_rmse_w: rmse(model)?,
+        baseline_power_rmse_w: rmse(base_model)?,
+        max_tracking_error_rad: truth
+            .q
+            .iter()
+            .zip(&truth.q_ref)
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+            .fold(0.0, f64::max),
+    })
+}
+
+/// One row of Table 2.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamRow {
+    /// Base parameter name.
+    pub name: String,
+    /// Identified value (SI; divided by the efficiency for an efficiency-scaled model).
+    pub identified: f64,
+    /// The twin's true value, on the same scale.
+    pub truth: f64,
+    /// `100 (identified - truth) / |truth|`, %; `None` where the truth is zero.
+    pub error_pct: Option<f64>,
+    /// Relative standard deviation of the estimate, %; `None` if no estimate covers it.
+    pub rel_std_pct: Option<f64>,
+}
+
+/// Table 2 for `model`, identified on a twin of `robot` with drives `drive`. `estimates` are
+/// the least-squares results the model came from (for the standard deviations; a parameter
+/// in several takes the last). An efficiency-scaled model is compared with the truth divided
+/// by the drives' nominal efficiency.
+pub fn table(
+    robot: &Robot,
+    drive: &Drive,
+    model: &PowerModel,
+    estimates: &[&Estimate],
+) -> Result<Vec<ParamRow>> {
+    let base = model.base_params(robot)?;
+    let scale = if model.efficiency_scaled {
+        1.0 / drive.nominal_efficiency()
+    } else {
+        1.0
+    };
+    let truth: Vec<f64> = base
+        .base_values(&model.layout.theta(robot, &DriveTerms::from(drive)))?
+        .into_iter()
+        .map(|v| v * scale)
+        .collect();
+    let largest = truth.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    Ok(model
+        .names
+        .iter()
+        .zip(&model.theta)
+        .zip(&truth)
+        .map(|((name, &identified), &truth)| {
+            let rel_std_pct = estimates.iter().rev().find_map(|e| {
+                e.names
+                    .iter()
+                    .position(|n| n == name)
+                    .map(|k| 100.0 * e.rel_std[k])
+            });
+            ParamRow {
+                name: name.clone(),
+                identified,
+                truth,
+                error_pct: (truth.abs() > NEGLIGIBLE * largest)
+                    .then(|| 100.0 * (identified - truth) / truth.abs()),
+                rel_std_pct,
+            }
+        })
+        .collect())
+}
