@@ -1,6 +1,7 @@
 //! The twin's check of an optimised task: the user's uniform plan and the optimised plan
 //! (and the optimised plan at the best placement, when one was searched) run on the twin,
-//! with predicted and simulated energies and savings side by side.
+//! with predicted and simulated energies and savings side by side (errors scored by
+//! [`crate::validation::score`]).
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -14,6 +15,7 @@ use crate::optimize::{Optimized, predict_run};
 use crate::trajectory::task::TaskRun;
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
+use crate::validation::score::energy_error_pct;
 use crate::validation::sweep::TRACKING_ERROR_BOUND_RAD;
 
 /// One plan on the twin.
@@ -162,7 +164,7 @@ pub fn check(
                     predicted_j,
                     interval_j: p.interval_j,
                     simulated_j,
-                    error_pct: 100.0 * (predicted_j - simulated_j) / simulated_j,
+                    error_pct: energy_error_pct(predicted_j, simulated_j),
                     braked_s,
                     flagged: !report.torque_limit_hits.is_empty()
                         || report.max_tracking_error_rad.is_nan()
