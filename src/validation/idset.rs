@@ -12,7 +12,7 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
 use crate::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
-use crate::identification::fit::{FitOptions, Selection, identify_logs};
+use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
 use crate::model::payload::{Payload, PayloadEvent};
 use crate::trajectory::fourier::Fourier;
@@ -87,6 +87,12 @@ pub struct IdSet {
     pub set_cond: f64,
     /// Wall time of the design, s.
     pub design_s: f64,
+    /// Criterion of the design.
+    pub criterion: SetCriterion,
+    /// Block-coordinate rounds of the design.
+    pub rounds: usize,
+    /// Weighting of the samples in the fit.
+    pub weighting: Weighting,
     /// The known payload timeline of each run.
     pub payloads: Vec<Vec<PayloadEvent>>,
     /// The twin's dataset of each run (truth included: for scoring and files only).
@@ -200,6 +206,9 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
         conds: design.member_conds,
         set_cond: design.cond_final,
         design_s: design.wall_s,
+        criterion: opts.criterion,
+        rounds: opts.rounds,
+        weighting: opts.fit.weighting,
         payloads: Vec::new(),
         datasets: Vec::new(),
         logs,
