@@ -117,7 +117,18 @@ fn check_schema(r: &Value) {
     }
     assert!(r["model"]["name"].as_str().unwrap().starts_with("cv:"));
     assert!(!r["model"]["cv"].as_array().unwrap().is_empty());
-    num(&r["model"], "structure_sigma_W");
+    let model = &r["model"];
+    for key in ["structure_sigma_W", "structure_rel", "residual_rms_W"] {
+        num(model, key);
+    }
+    assert_eq!(model["weighting"], "none");
+    assert_eq!(model["consistent"], false);
+    assert_eq!(model["design"]["criterion"], "d-optimal");
+    num(&model["design"], "stacked_cond");
+    num(&model["design"], "wall_s");
+    assert_eq!(model["table2"].as_array().unwrap().len(), 52);
+    let well = model["well_determined"].as_u64().unwrap();
+    assert_eq!(model["well_determined_max_error_pct"].is_null(), well == 0);
     let table4 = r["table4"].as_array().expect("table4");
     assert_eq!(table4.len(), 5);
     for row in table4 {

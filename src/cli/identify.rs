@@ -12,7 +12,7 @@ use powertwin::dynamics::ParamLayout;
 use powertwin::identification::consistency::consistency;
 use powertwin::identification::data::{Prepared, Route, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
-use powertwin::identification::fit::{Estimator, FitOptions, identify_logs};
+use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_logs};
 use powertwin::identification::linear::{self, Observation};
 use powertwin::identification::model::DATASHEET_EFFICIENCY;
 use powertwin::identification::model::PowerModel;
@@ -43,6 +43,27 @@ pub enum Method {
     Energy,
     /// PMSM losses too (copper and standby, nonlinear least squares).
     Pmsm,
+}
+
+/// Weighting of the samples (see `identify --weighting`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum WeightingArg {
+    /// Ordinary least squares.
+    None,
+    /// Each log by the inverse of its residual variance.
+    PerLog,
+    /// Each sample by the inverse of a variance growing with the active power.
+    PowerLevel,
+}
+
+impl From<WeightingArg> for Weighting {
+    fn from(w: WeightingArg) -> Weighting {
+        match w {
+            WeightingArg::None => Weighting::None,
+            WeightingArg::PerLog => Weighting::PerLog,
+            WeightingArg::PowerLevel => Weighting::PowerLevel,
+        }
+    }
 }
 
 /// How the logged positions are differentiated.
@@ -122,6 +143,17 @@ pub struct IdentifyArgs {
     /// [default: 0.05 for auto, total and pmsm; 0 for the others].
     #[arg(long, value_name = "RAD_S")]
     min_speed: Option<f64>,
+    /// Weighted least squares for --method auto, total and pmsm: `per-log` weighs each log by
+    /// the inverse of its residual variance, `power-level` each sample by the inverse of a
+    /// variance growing with the predicted active power (both iterated from the residuals).
+    #[arg(long, value_enum, default_value = "none")]
+    weighting: WeightingArg,
+    /// Make the model physically consistent inside identification (--method auto, total or
+    /// pmsm): positive-definite pseudo-inertias, non-negative friction, rotor inertia and
+    /// losses, nearest to the estimate in its covariance (the input URDF decides what the data
+    /// cannot see).
+    #[arg(long)]
+    consistent: bool,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -205,6 +237,12 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
+    if !fitted && (args.consistent || args.weighting != WeightingArg::None) {
+        bail!(
+            "--weighting and --consistent apply to --method auto, total and pmsm, not {:?}",
+            args.method
+        );
+    }
     if !fitted
         && logs
             .iter()
@@ -226,6 +264,8 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         let opts = FitOptions {
             min_speed,
             candidates,
+            weighting: args.weighting.into(),
+            consistent: args.consistent,
             ..FitOptions::default()
         };
         let sel = identify_logs(&robot, &logs, &[route], &opts)?;
@@ -236,6 +276,12 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
                 c.mean_power_rms_w,
                 c.power_rmse_w,
                 c.pieces
+            );
+        }
+        if let Some(c) = &sel.consistent {
+            eprintln!(
+                "consistent: the model moved {:.3} (Mahalanobis) from the estimate, at most {:.3} standard deviations per value",
+                c.mahalanobis, c.max_change_sigma
             );
         }
         (sel.fit.model, vec![sel.fit.estimate], sel.scores)

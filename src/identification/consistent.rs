@@ -562,6 +562,78 @@ pub fn project(
     })
 }
 
+/// [`project`] the estimate behind `model` (SI, not efficiency-scaled): its base parameters
+/// (which must come first and carry the model's names) and its other values, kept
+/// non-negative, with the estimate's full covariance.
+///
+/// Errors: an efficiency-scaled model, an estimate that does not cover the model's base
+/// parameters at once, or what [`project`] refuses.
+fn project_estimate(
+    robot: &Robot,
+    model: &PowerModel,
+    estimate: &Estimate,
+    prior: &[f64],
+    opts: &Options,
+) -> Result<Consistent> {
+    let base = model.base_params(robot)?;
+    if model.efficiency_scaled {
+        return Err(Error::InvalidInput(
+            "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method auto, total or pmsm)".into(),
+        ));
+    }
+    let nb = model.theta.len();
+    let nt = estimate.values.len();
+    let covers = nt >= nb
+        && estimate.names.len() == nt
+        && estimate.names[..nb] == model.names[..]
+        && estimate.covariance.shape() == (nt, nt);
+    if !covers {
+        return Err(Error::InvalidInput(
+            "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method auto, total or pmsm".into(),
+        ));
+    }
+    project(&base, &estimate.values, &estimate.covariance, prior, opts)
+}
+
+/// The physically consistent model nearest to a fitted one, for predictions (estimation
+/// within the consistent set rather than a check afterwards): the base parameters of the
+/// consistent standard parameters that [`project`] finds for `model`'s `estimate` (closest
+/// in the estimate's Mahalanobis metric; `prior` decides only what the data cannot see), and
+/// the estimate's other values (copper-loss coefficients `c<i>_W_per_Nm2`, standby `P0_W`)
+/// as the projection moved them (kept >= 0). The covariance and intervals stay the
+/// unconstrained estimate's.
+///
+/// Errors: as [`IdentifiedTwin::new`].
+pub fn constrain(
+    robot: &Robot,
+    model: &PowerModel,
+    estimate: &Estimate,
+    prior: &[f64],
+    opts: &Options,
+) -> Result<(PowerModel, Consistent)> {
+    let consistent = project_estimate(robot, model, estimate, prior, opts)?;
+    let mut out = model.clone();
+    out.theta.copy_from_slice(&consistent.theta);
+    let nb = model.theta.len();
+    for (name, v) in estimate.names[nb..].iter().zip(&consistent.extras) {
+        if name == "P0_W" {
+            out.constant.fill(0.0);
+            out.constant[0] = *v;
+        } else if let Some(i) = copper_index(name, out.copper.len()) {
+            out.copper[i - 1] = *v;
+        }
+    }
+    Ok((out, consistent))
+}
+
+/// The 1-based joint of a copper-loss name `c<i>_W_per_Nm2` (`i` in `1..=n`).
+fn copper_index(name: &str, n: usize) -> Option<usize> {
+    name.strip_prefix('c')
+        .and_then(|r| r.strip_suffix("_W_per_Nm2"))
+        .and_then(|i| i.parse::<usize>().ok())
+        .filter(|i| (1..=n).contains(i))
+}
+
 /// The identified robot as a twin: a physically consistent robot and drive that reproduce an
 /// identified [`PowerModel`], ready to be written as URDF and drive TOML.
 #[derive(Debug, Clone)]
@@ -596,36 +668,15 @@ impl IdentifiedTwin {
         prior: &[f64],
         opts: &Options,
     ) -> Result<IdentifiedTwin> {
-        let base = model.base_params(robot)?;
-        if model.efficiency_scaled {
-            return Err(Error::InvalidInput(
-                "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method auto, total or pmsm)".into(),
-            ));
-        }
+        let consistent = project_estimate(robot, model, estimate, prior, opts)?;
         let nb = model.theta.len();
-        let nt = estimate.values.len();
-        let covers = nt >= nb
-            && estimate.names.len() == nt
-            && estimate.names[..nb] == model.names[..]
-            && estimate.covariance.shape() == (nt, nt);
-        if !covers {
-            return Err(Error::InvalidInput(
-                "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method auto, total or pmsm".into(),
-            ));
-        }
-        let consistent = project(&base, &estimate.values, &estimate.covariance, prior, opts)?;
         // Copper and standby from the consistent extras where the estimate has them.
         let mut copper = model.copper.clone();
         let mut standby: f64 = model.constant.iter().sum();
         for (name, v) in estimate.names[nb..].iter().zip(&consistent.extras) {
             if name == "P0_W" {
                 standby = *v;
-            } else if let Some(i) = name
-                .strip_prefix('c')
-                .and_then(|r| r.strip_suffix("_W_per_Nm2"))
-                .and_then(|i| i.parse::<usize>().ok())
-                .filter(|i| (1..=copper.len()).contains(i))
-            {
+            } else if let Some(i) = copper_index(name, copper.len()) {
                 copper[i - 1] = *v;
             }
         }

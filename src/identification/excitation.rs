@@ -145,35 +145,156 @@ pub struct Excitation {
 /// the real limits.
 const OPTIMISATION_TIGHTENING: f64 = 0.98;
 
+/// Joint and workspace limits of an excitation, as quadratic penalties.
+pub(crate) struct Bounds {
+    /// Position limits less the margin, rad.
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    /// Usable speed and acceleration per joint, rad/s and rad/s^2.
+    vmax: Vec<f64>,
+    amax: Vec<f64>,
+    /// Floor plane height, m, and keep-out radius around the base axis, m.
+    floor_z: f64,
+    base_radius: f64,
+}
+
+impl Bounds {
+    /// The limits of `robot` less `position_margin` (rad), `limit_fraction` of its speed
+    /// limits (at most 10 rad/s) and of `accel_limits` (rad/s^2), the floor at `floor_z` (m)
+    /// and the keep-out cylinder of radius `base_radius` (m).
+    pub(crate) fn new(
+        robot: &Robot,
+        position_margin: f64,
+        limit_fraction: f64,
+        accel_limits: &[f64],
+        floor_z: f64,
+        base_radius: f64,
+    ) -> Bounds {
+        let joints = robot.joints();
+        Bounds {
+            lower: joints
+                .iter()
+                .map(|j| j.limits.lower + position_margin)
+                .collect(),
+            upper: joints
+                .iter()
+                .map(|j| j.limits.upper - position_margin)
+                .collect(),
+            vmax: joints
+                .iter()
+                .map(|j| j.limits.velocity.min(10.0) * limit_fraction)
+                .collect(),
+            amax: accel_limits.iter().map(|a| a * limit_fraction).collect(),
+            floor_z,
+            base_radius,
+        }
+    }
+
+    /// Penalty of one state (0 inside every limit), with the limits shrunk by the factor
+    /// `tighten` (<= 1) and the workspace grown by `(1 - tighten)` m. `poses` is scratch of
+    /// `robot.dof()` link poses.
+    pub(crate) fn penalty(
+        &self,
+        robot: &Robot,
+        q: &[f64],
+        dq: &[f64],
+        ddq: &[f64],
+        poses: &mut [nalgebra::Isometry3<f64>],
+        tighten: f64,
+    ) -> f64 {
+        let n = robot.dof();
+        let extra = 1.0 - tighten;
+        let mut penalty = 0.0;
+        for i in 0..n {
+            let (lo, hi) = (self.lower[i] + extra, self.upper[i] - extra);
+            let (vmax, amax) = (self.vmax[i] * tighten, self.amax[i] * tighten);
+            penalty += (lo - q[i]).max(0.0).powi(2) + (q[i] - hi).max(0.0).powi(2);
+            penalty += ((dq[i].abs() - vmax) / vmax).max(0.0).powi(2);
+            penalty += ((ddq[i].abs() - amax) / amax).max(0.0).powi(2);
+        }
+        link_poses(robot, q, poses);
+        let flange = poses[n - 1] * robot.flange();
+        let points = [
+            poses[n.saturating_sub(2)].translation.vector,
+            flange.translation.vector,
+        ];
+        for p in points {
+            penalty += (self.floor_z + extra - p.z).max(0.0).powi(2) * 100.0;
+            let r = Vector3::new(p.x, p.y, 0.0).norm();
+            penalty += (self.base_radius + extra - r).max(0.0).powi(2) * 100.0;
+        }
+        penalty
+    }
+}
+
+/// Decision vector -> rest-constrained series about `rest_pose`: per excited joint
+/// `[q0, a_1..a_{N-1}, b_1..b_{N-1}]` (rad) for `harmonics` = N; the other joints hold
+/// `rest_pose`.
+pub(crate) fn series(
+    rest_pose: &[f64],
+    joints: &[usize],
+    harmonics: usize,
+    base_freq_hz: f64,
+    periods: usize,
+    x: &[f64],
+) -> Result<Fourier> {
+    let n = rest_pose.len();
+    let free = harmonics - 1;
+    let per = 1 + 2 * free;
+    let mut q0 = rest_pose.to_vec();
+    let mut a = vec![vec![0.0; free]; n];
+    let mut b = vec![vec![0.0; free]; n];
+    for (k, &j) in joints.iter().enumerate() {
+        let xs = &x[k * per..(k + 1) * per];
+        q0[j] = xs[0];
+        a[j].copy_from_slice(&xs[1..1 + free]);
+        b[j].copy_from_slice(&xs[1 + free..]);
+    }
+    Fourier::rest_constrained(base_freq_hz, q0, a, b, periods as f64)
+}
+
+/// A start point of the design of [`series`]: offsets at the rest pose, small random
+/// coefficients falling off as `1/h^2` (0.3 rad for the first harmonic).
+pub(crate) fn start_point(
+    rest_pose: &[f64],
+    joints: &[usize],
+    harmonics: usize,
+    rng: &mut ChaCha8Rng,
+) -> Vec<f64> {
+    let free = harmonics - 1;
+    let per = 1 + 2 * free;
+    let mut x0 = vec![0.0; per * joints.len()];
+    for (k, &j) in joints.iter().enumerate() {
+        x0[k * per] = rest_pose[j];
+        for h in 0..free {
+            let scale = 0.3 / ((h + 1) * (h + 1)) as f64;
+            x0[k * per + 1 + h] = rng.random_range(-scale..scale);
+            x0[k * per + 1 + free + h] = rng.random_range(-scale..scale);
+        }
+    }
+    x0
+}
+
 /// The problem: fixed data shared by all objective evaluations.
 struct Problem<'a> {
     robot: &'a Robot,
     opts: &'a ExcitationOptions,
     columns: Vec<usize>,
-    vmax: Vec<f64>,
-    amax: Vec<f64>,
+    bounds: Bounds,
 }
 
 impl Problem<'_> {
-    fn free(&self) -> usize {
-        self.opts.harmonics - 1
-    }
-
-    /// Decision vector -> trajectory: per excited joint `[q0, a_1..a_{N-1}, b_1..b_{N-1}]`.
+    /// Decision vector -> trajectory (see [`series`]).
     fn trajectory(&self, x: &[f64]) -> Result<Fourier> {
         let o = self.opts;
-        let n = self.robot.dof();
-        let per = 1 + 2 * self.free();
-        let mut q0 = o.rest_pose.clone();
-        let mut a = vec![vec![0.0; self.free()]; n];
-        let mut b = vec![vec![0.0; self.free()]; n];
-        for (k, &j) in o.joints.iter().enumerate() {
-            let xs = &x[k * per..(k + 1) * per];
-            q0[j] = xs[0];
-            a[j].copy_from_slice(&xs[1..1 + self.free()]);
-            b[j].copy_from_slice(&xs[1 + self.free()..]);
-        }
-        Fourier::rest_constrained(o.base_freq_hz, q0, a, b, o.periods as f64)
+        series(
+            &o.rest_pose,
+            &o.joints,
+            o.harmonics,
+            o.base_freq_hz,
+            o.periods,
+            x,
+        )
     }
 
     /// Regressor of the identified columns over one period (columns unit-norm scaled) and
@@ -197,26 +318,9 @@ impl Problem<'_> {
         for s in 0..o.samples {
             let t = period * s as f64 / o.samples as f64;
             traj.sample(t, &mut q, &mut dq, &mut ddq);
-            let extra = 1.0 - tighten;
-            for (i, jn) in robot.joints().iter().enumerate() {
-                let lo = jn.limits.lower + o.position_margin + extra;
-                let hi = jn.limits.upper - o.position_margin - extra;
-                let (vmax, amax) = (self.vmax[i] * tighten, self.amax[i] * tighten);
-                penalty += (lo - q[i]).max(0.0).powi(2) + (q[i] - hi).max(0.0).powi(2);
-                penalty += ((dq[i].abs() - vmax) / vmax).max(0.0).powi(2);
-                penalty += ((ddq[i].abs() - amax) / amax).max(0.0).powi(2);
-            }
-            link_poses(robot, &q, &mut poses);
-            let flange = poses[n - 1] * robot.flange();
-            let points = [
-                poses[n.saturating_sub(2)].translation.vector,
-                flange.translation.vector,
-            ];
-            for p in points {
-                penalty += (o.floor_z + extra - p.z).max(0.0).powi(2) * 100.0;
-                let r = Vector3::new(p.x, p.y, 0.0).norm();
-                penalty += (o.base_radius + extra - r).max(0.0).powi(2) * 100.0;
-            }
+            penalty += self
+                .bounds
+                .penalty(robot, &q, &dq, &ddq, &mut poses, tighten);
             regressor(robot, &mut ws, &o.layout, &q, &dq, &ddq, &mut w);
             for (k, &c) in self.columns.iter().enumerate() {
                 match o.observation {
@@ -409,32 +513,20 @@ pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
         robot,
         opts,
         columns: columns.clone(),
-        vmax: robot
-            .joints()
-            .iter()
-            .map(|j| j.limits.velocity.min(10.0) * opts.limit_fraction)
-            .collect(),
-        amax: opts
-            .accel_limits
-            .iter()
-            .map(|a| a * opts.limit_fraction)
-            .collect(),
+        bounds: Bounds::new(
+            robot,
+            opts.position_margin,
+            opts.limit_fraction,
+            &opts.accel_limits,
+            opts.floor_z,
+            opts.base_radius,
+        ),
     };
-    let per = 1 + 2 * problem.free();
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let mut best: Option<(f64, Vec<f64>, f64)> = None;
     let mut evaluations = 0;
     for s in 0..opts.starts {
-        // Start: offsets at the rest pose, small random coefficients falling off as 1/j^2.
-        let mut x0 = vec![0.0; per * opts.joints.len()];
-        for (k, &j) in opts.joints.iter().enumerate() {
-            x0[k * per] = opts.rest_pose[j];
-            for h in 0..problem.free() {
-                let scale = 0.3 / ((h + 1) * (h + 1)) as f64;
-                x0[k * per + 1 + h] = rng.random_range(-scale..scale);
-                x0[k * per + 1 + problem.free() + h] = rng.random_range(-scale..scale);
-            }
-        }
+        let x0 = start_point(&opts.rest_pose, &opts.joints, opts.harmonics, &mut rng);
         let cond0 = problem
             .trajectory(&x0)
             .map(|t| Problem::conditioning(&problem.evaluate(&t, 1.0).0).0)

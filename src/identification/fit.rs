@@ -288,33 +288,142 @@ pub struct Fit {
     pub covariance: DMatrix<f64>,
 }
 
-/// Fit `estimator` on the samples for which `use_sample(m)` and the sample's fit flag hold.
-/// `template` gives the robot's base-parameter set (its values are ignored).
+/// How the samples are weighted in a fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Weighting {
+    /// Ordinary least squares: every sample alike.
+    None,
+    /// Each log by the inverse of its residual variance (iterated from the residuals).
+    PerLog,
+    /// Each sample by the inverse of a residual variance that grows with the predicted active
+    /// power, `a + b (P - P0)^2` (fitted to the squared residuals, iterated).
+    PowerLevel,
+}
+
+impl Weighting {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Weighting::None => "none",
+            Weighting::PerLog => "per-log",
+            Weighting::PowerLevel => "power-level",
+        }
+    }
+}
+
+/// Re-weightings of iterated weighted least squares (each from the previous fit's residuals).
+const WLS_ITERATIONS: usize = 2;
+
+/// Smallest residual variance a weight may assume, as a fraction of the mean squared residual
+/// (so no sample dominates).
+const VARIANCE_FLOOR: f64 = 0.05;
+
+/// Fit `estimator` on the samples for which `use_sample(m)` and the sample's fit flag hold,
+/// weighted by `weighting` (iterated: each weighting from the previous fit's residuals).
+/// `template` gives the robot's base-parameter set (its values are ignored). The covariance
+/// is the weighted one; `residual_rms` stays the unweighted RMS in W.
 pub fn fit(
     template: &PowerModel,
     s: &Samples,
     estimator: Estimator,
+    weighting: Weighting,
     use_sample: &dyn Fn(usize) -> bool,
 ) -> Result<Fit> {
-    let (n, nb, np) = (s.n, s.nb, s.params());
     let rows: Vec<usize> = (0..s.len())
         .filter(|&m| s.fit[m] && use_sample(m))
         .collect();
-    // Linear solution: y - dq . tau_known = (dq^T W_b) theta + P0 (clipped samples out).
-    let lin: Vec<usize> = rows
+    let mut weights = vec![1.0; rows.len()];
+    let mut f = fit_weighted(template, s, estimator, &rows, &weights)?;
+    if weighting != Weighting::None {
+        for _ in 0..WLS_ITERATIONS {
+            let z = DVector::from_column_slice(&f.estimate.values);
+            weights = variance_weights(s, &rows, &z, weighting);
+            f = fit_weighted(template, s, estimator, &rows, &weights)?;
+        }
+    }
+    Ok(f)
+}
+
+/// Weights `1 / sigma_m^2` of the samples `rows` under `weighting`, from the residuals of the
+/// parameters `z` (normalised to mean 1).
+fn variance_weights(
+    s: &Samples,
+    rows: &[usize],
+    z: &DVector<f64>,
+    weighting: Weighting,
+) -> Vec<f64> {
+    let np = s.params();
+    let p0 = z[np - 1];
+    let (r2, u): (Vec<f64>, Vec<f64>) = rows
         .iter()
-        .copied()
-        .filter(|&m| !s.clipped || s.y[m] > CLIPPED_BELOW_W)
+        .map(|&m| {
+            let p = s.power(m, z, None);
+            ((p - s.y[m]).powi(2), (p - p0).powi(2))
+        })
+        .unzip();
+    let mean_r2 = r2.iter().sum::<f64>() / r2.len().max(1) as f64;
+    let floor = (VARIANCE_FLOOR * mean_r2).max(1e-300);
+    let variance: Vec<f64> = match weighting {
+        Weighting::None => vec![1.0; rows.len()],
+        Weighting::PerLog => {
+            let mut by_log: std::collections::BTreeMap<usize, (f64, usize)> = Default::default();
+            for (k, &m) in rows.iter().enumerate() {
+                let e = by_log.entry(s.piece[m].0).or_insert((0.0, 0));
+                e.0 += r2[k];
+                e.1 += 1;
+            }
+            rows.iter()
+                .map(|&m| {
+                    let (sum, c) = by_log[&s.piece[m].0];
+                    sum / c as f64
+                })
+                .collect()
+        }
+        Weighting::PowerLevel => {
+            // Least squares of r^2 on [1, u], the slope kept >= 0.
+            let c = r2.len().max(1) as f64;
+            let (mu, mr) = (u.iter().sum::<f64>() / c, mean_r2);
+            let (mut suu, mut sur) = (0.0, 0.0);
+            for (ui, ri) in u.iter().zip(&r2) {
+                suu += (ui - mu) * (ui - mu);
+                sur += (ui - mu) * (ri - mr);
+            }
+            let b = if suu > 0.0 { (sur / suu).max(0.0) } else { 0.0 };
+            let a = mr - b * mu;
+            u.iter().map(|ui| a + b * ui).collect()
+        }
+    };
+    let w: Vec<f64> = variance.iter().map(|v| 1.0 / v.max(floor)).collect();
+    let mean = w.iter().sum::<f64>() / w.len().max(1) as f64;
+    w.iter().map(|v| v / mean).collect()
+}
+
+/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per row).
+fn fit_weighted(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    rows: &[usize],
+    weights: &[f64],
+) -> Result<Fit> {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    // Linear solution: y - dq . tau_known = (dq^T W_b) theta + P0 (clipped samples out).
+    let lin: Vec<(usize, f64)> = rows
+        .iter()
+        .zip(weights)
+        .filter(|(m, _)| !s.clipped || s.y[**m] > CLIPPED_BELOW_W)
+        .map(|(m, w)| (*m, w.sqrt()))
         .collect();
     let mut a = DMatrix::zeros(lin.len(), nb + 1);
     let mut y = DVector::zeros(lin.len());
-    for (r, &m) in lin.iter().enumerate() {
+    for (r, &(m, sw)) in lin.iter().enumerate() {
         let v = &s.dq[m];
         for k in 0..nb {
-            a[(r, k)] = (0..n).map(|i| v[i] * s.wb[m][(i, k)]).sum();
+            a[(r, k)] = sw * (0..n).map(|i| v[i] * s.wb[m][(i, k)]).sum::<f64>();
         }
-        a[(r, nb)] = 1.0;
-        y[r] = s.y[m] - (0..n).map(|i| v[i] * s.tau_known[m][i]).sum::<f64>();
+        a[(r, nb)] = sw;
+        y[r] = sw * (s.y[m] - (0..n).map(|i| v[i] * s.tau_known[m][i]).sum::<f64>());
     }
     let names_lin: Vec<String> = template
         .names
@@ -338,7 +447,7 @@ pub fn fit(
             }
             (est, cov)
         }
-        Estimator::Pmsm => levenberg_marquardt(template, s, &rows, &mut z)?,
+        Estimator::Pmsm => levenberg_marquardt(template, s, rows, weights, &mut z)?,
     };
     let mut model = template.clone();
     model.efficiency_scaled = false;
@@ -352,14 +461,69 @@ pub fn fit(
         crate::measurement::PowerSignal::Total
     };
     model.covariance = covariance.as_slice().to_vec();
+    // The residual in W (unweighted) over the fitted samples.
+    let residual_rms = (rows
+        .iter()
+        .map(|&m| (s.power(m, &z, None) - s.y[m]).powi(2))
+        .sum::<f64>()
+        / rows.len().max(1) as f64)
+        .sqrt();
     Ok(Fit {
         model,
         estimate: Estimate {
             values: z.as_slice().to_vec(),
+            residual_rms,
             ..estimate
         },
         covariance,
     })
+}
+
+impl Fit {
+    /// The estimated values only (for [`Estimator::Total`] without the copper coefficients it
+    /// holds at zero), with their names and covariance.
+    pub fn free_estimate(&self) -> Estimate {
+        let np = self.estimate.values.len();
+        let nb = self.model.theta.len();
+        let free: Vec<usize> = (0..np)
+            .filter(|&k| k < nb || k == np - 1 || self.covariance[(k, k)] > 0.0)
+            .collect();
+        let names: Vec<String> = self
+            .model
+            .names
+            .iter()
+            .cloned()
+            .chain((1..=self.model.copper.len()).map(|i| format!("c{i}_W_per_Nm2")))
+            .chain(["P0_W".to_string()])
+            .collect();
+        let pick = |v: &[f64]| free.iter().map(|&k| v[k]).collect::<Vec<f64>>();
+        let std = pick(
+            &(0..np)
+                .map(|k| self.covariance[(k, k)].max(0.0).sqrt())
+                .collect::<Vec<_>>(),
+        );
+        let values = pick(&self.estimate.values);
+        Estimate {
+            names: free.iter().map(|&k| names[k].clone()).collect(),
+            rel_std: values
+                .iter()
+                .zip(&std)
+                .map(|(v, s)| {
+                    if *v == 0.0 {
+                        f64::INFINITY
+                    } else {
+                        s / v.abs()
+                    }
+                })
+                .collect(),
+            values,
+            std,
+            covariance: DMatrix::from_fn(free.len(), free.len(), |r, c| {
+                self.covariance[(free[r], free[c])]
+            }),
+            ..self.estimate.clone()
+        }
+    }
 }
 
 /// `s2_total / (m - p) * (A^T A)^-1`, with `s2_total` the residual sum of squares, computed
@@ -386,14 +550,18 @@ fn covariance(a: &DMatrix<f64>, rss: f64, est: &Estimate) -> Result<DMatrix<f64>
     Ok(cov)
 }
 
-/// Levenberg–Marquardt on the samples `rows` from `z` (the linear solution), in place.
+/// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
+/// linear solution), in place.
 fn levenberg_marquardt(
     template: &PowerModel,
     s: &Samples,
     rows: &[usize],
+    weights: &[f64],
     z: &mut DVector<f64>,
 ) -> Result<(Estimate, DMatrix<f64>)> {
     let np = s.params();
+    let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    // Weighted residuals and Jacobian: each row times the square root of its weight.
     let eval = |z: &DVector<f64>, jac: Option<&mut DMatrix<f64>>| -> DVector<f64> {
         let mut r = DVector::zeros(rows.len());
         let mut grad = vec![0.0; np];
@@ -401,10 +569,10 @@ fn levenberg_marquardt(
         for (k, &m) in rows.iter().enumerate() {
             let want = jac.is_some();
             let p = s.power(m, z, want.then_some(grad.as_mut_slice()));
-            r[k] = p - s.y[m];
+            r[k] = sw[k] * (p - s.y[m]);
             if let Some(j) = jac.as_deref_mut() {
                 for (c, g) in grad.iter().enumerate() {
-                    j[(k, c)] = *g;
+                    j[(k, c)] = sw[k] * *g;
                 }
             }
         }
@@ -486,64 +654,140 @@ pub struct Selection {
     pub scores: Vec<CvScore>,
     /// The candidate with the smallest mean-power error.
     pub chosen: Estimator,
-    /// The chosen estimator fitted on all samples, with `structure_sigma` set.
+    /// The chosen estimator fitted on all samples, with `structure_sigma` set (its model made
+    /// physically consistent when [`FitOptions::consistent`] asks for it).
     pub fit: Fit,
+    /// The consistent projection of the fit, when asked for.
+    pub consistent: Option<crate::identification::consistent::Consistent>,
+}
+
+/// Sums over one held-out piece: error (W), samples, gradient of the power (per parameter),
+/// active power (W).
+type PieceSums = (f64, usize, Vec<f64>, f64);
+
+/// One held-out piece of cross-validation: what the fold's model predicted for a stretch of
+/// a log it was not fitted on.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    /// Mean-power error (predicted minus measured), W.
+    error_w: f64,
+    /// Variance of that error the fold's parameter covariance and the measurement residual
+    /// explain, W^2.
+    explained_w2: f64,
+    /// Mean predicted active power `|P - P0|` over the piece, W.
+    active_w: f64,
+}
+
+/// The structure error of a model: the variance of the mean-power error on motions it was not
+/// fitted on beyond what its parameter covariance and the residual explain, modelled as
+/// `sigma^2 + (rel A)^2` with `A` the motion's mean active power `|P - P0|` (a constant part
+/// and a part proportional to how hard the robot works). Fitted by maximum likelihood to the
+/// cross-validation pieces (`error ~ N(0, explained + sigma^2 + (rel A)^2)`) on a logarithmic
+/// grid (sigma 1e-4..30 W, rel 1e-5..0.3, and each of them 0). Returns `(sigma_W, rel)`.
+fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
+    let grid = |lo: f64, hi: f64| -> Vec<f64> {
+        let steps = 80;
+        std::iter::once(0.0)
+            .chain((0..=steps).map(|k| lo * (hi / lo).powf(k as f64 / steps as f64)))
+            .collect()
+    };
+    let nll = |sigma: f64, rel: f64| -> f64 {
+        pieces
+            .iter()
+            .map(|p| {
+                let v = (p.explained_w2 + sigma * sigma + (rel * p.active_w).powi(2)).max(1e-300);
+                v.ln() + p.error_w * p.error_w / v
+            })
+            .sum()
+    };
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    for &sigma in &grid(1e-4, 30.0) {
+        for &rel in &grid(1e-5, 0.3) {
+            let v = nll(sigma, rel);
+            if v < best.0 {
+                best = (v, sigma, rel);
+            }
+        }
+    }
+    (best.1, best.2)
 }
 
 /// Choose among `candidates` by cross-validation over the folds of the samples (see
-/// [`Samples::new`]), then fit the chosen one on all samples. The spread of the held-out mean-power errors beyond what noise and the
-/// parameter covariance explain is the model's structure error (`structure_sigma_W`), used
-/// for prediction intervals.
+/// [`Samples::new`]), then fit the chosen one on all samples. On the held-out pieces, the
+/// mean-power errors beyond what the fold's parameter covariance and residual explain give
+/// the model's structure error ([`structure_fit`]: `structure_sigma_W` and `structure_rel`),
+/// used for prediction intervals.
 ///
 /// Errors: no candidates, or a fit that fails on all data.
-pub fn select(template: &PowerModel, s: &Samples, candidates: &[Estimator]) -> Result<Selection> {
+pub fn select(
+    template: &PowerModel,
+    s: &Samples,
+    candidates: &[Estimator],
+    weighting: Weighting,
+) -> Result<Selection> {
     if candidates.is_empty() {
         return Err(Error::InvalidInput(
             "cross-validation needs at least one estimator".into(),
         ));
     }
     let folds = s.folds;
+    let np = s.params();
     let mut scores = Vec::new();
-    let mut excess = Vec::new();
+    let mut structure = Vec::new();
     for &est in candidates {
-        let (mut se_mean, mut se_sample, mut samples, mut pieces) = (0.0, 0.0, 0usize, 0usize);
-        let mut unexplained = 0.0;
+        let (mut se_mean, mut se_sample, mut samples) = (0.0, 0.0, 0usize);
+        let mut held: Vec<Piece> = Vec::new();
         let mut ok = true;
         for k in 0..folds {
-            let Ok(f) = fit(template, s, est, &|m| s.fold[m] != k) else {
+            let Ok(f) = fit(template, s, est, weighting, &|m| s.fold[m] != k) else {
                 ok = false;
                 break;
             };
             let z = DVector::from_column_slice(&f.estimate.values);
+            let p0 = z[np - 1];
             let residual_var = f.estimate.residual_rms.powi(2);
-            let mut by_piece: std::collections::BTreeMap<(usize, usize), (f64, usize)> =
+            // Per piece: error sum, samples, gradient sum, active power sum.
+            let mut by_piece: std::collections::BTreeMap<(usize, usize), PieceSums> =
                 Default::default();
+            let mut grad = vec![0.0; np];
             for m in (0..s.len()).filter(|&m| s.fold[m] == k) {
-                let e = s.power(m, &z, None) - s.y[m];
+                let p = s.power(m, &z, Some(&mut grad));
+                let e = p - s.y[m];
                 se_sample += e * e;
                 samples += 1;
-                let entry = by_piece.entry(s.piece[m]).or_insert((0.0, 0));
+                let entry = by_piece
+                    .entry(s.piece[m])
+                    .or_insert_with(|| (0.0, 0, vec![0.0; np], 0.0));
                 entry.0 += e;
                 entry.1 += 1;
+                for (acc, g) in entry.2.iter_mut().zip(&grad) {
+                    *acc += g;
+                }
+                entry.3 += (p - p0).abs();
             }
-            for (sum, count) in by_piece.values() {
+            for (sum, count, g, active) in by_piece.values() {
                 let c = *count as f64;
                 let mean = sum / c;
+                let g = DVector::from_iterator(np, g.iter().map(|v| v / c));
+                let param_var = (g.transpose() * &f.covariance * &g)[(0, 0)].max(0.0);
                 se_mean += mean * mean;
-                unexplained += mean * mean - residual_var / c;
-                pieces += 1;
+                held.push(Piece {
+                    error_w: mean,
+                    explained_w2: param_var + residual_var / c,
+                    active_w: active / c,
+                });
             }
         }
-        if !ok || pieces == 0 {
+        if !ok || held.is_empty() {
             continue;
         }
         scores.push(CvScore {
             estimator: est,
-            mean_power_rms_w: (se_mean / pieces as f64).sqrt(),
+            mean_power_rms_w: (se_mean / held.len() as f64).sqrt(),
             power_rmse_w: (se_sample / samples.max(1) as f64).sqrt(),
-            pieces,
+            pieces: held.len(),
         });
-        excess.push((unexplained / pieces as f64).max(0.0).sqrt());
+        structure.push(structure_fit(&held));
     }
     let Some(best) = scores
         .iter()
@@ -553,19 +797,20 @@ pub fn select(template: &PowerModel, s: &Samples, candidates: &[Estimator]) -> R
     else {
         // No candidate fits every fold: the fit on all data says why (rank deficiency names
         // the parameters the data cannot reveal), or that the folds were too small.
-        fit(template, s, candidates[0], &|_| true)?;
+        fit(template, s, candidates[0], weighting, &|_| true)?;
         return Err(Error::InvalidInput(
             "no estimator could be fitted with any one run left out: record more runs or longer ones"
                 .into(),
         ));
     };
     let chosen = scores[best].estimator;
-    let mut f = fit(template, s, chosen, &|_| true)?;
-    f.model.structure_sigma = excess[best];
+    let mut f = fit(template, s, chosen, weighting, &|_| true)?;
+    (f.model.structure_sigma, f.model.structure_rel) = structure[best];
     Ok(Selection {
         scores,
         chosen,
         fit: f,
+        consistent: None,
     })
 }
 
@@ -581,6 +826,12 @@ pub struct FitOptions {
     pub folds: usize,
     /// Estimators to choose from.
     pub candidates: Vec<Estimator>,
+    /// Weighting of the samples.
+    pub weighting: Weighting,
+    /// Make the chosen model physically consistent
+    /// ([`crate::identification::consistent::constrain`]; the URDF decides what the data
+    /// cannot see).
+    pub consistent: bool,
 }
 
 impl Default for FitOptions {
@@ -590,6 +841,8 @@ impl Default for FitOptions {
             min_speed: 0.05,
             folds: 5,
             candidates: vec![Estimator::Total, Estimator::Pmsm],
+            weighting: Weighting::None,
+            consistent: false,
         }
     }
 }
@@ -645,5 +898,27 @@ pub fn identify_logs(
     let layout = crate::dynamics::ParamLayout::new(robot, true, true);
     let template = PowerModel::new(robot, layout, false)?;
     let samples = Samples::new(robot, &template, &prepared, opts.min_speed, opts.folds)?;
-    select(&template, &samples, &opts.candidates)
+    let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
+    if opts.consistent {
+        let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));
+        let estimate = selection.fit.free_estimate();
+        let (model, consistent) = crate::identification::consistent::constrain(
+            robot,
+            &selection.fit.model,
+            &estimate,
+            &prior,
+            &crate::identification::consistent::Options {
+                max_iterations: CONSISTENT_ITERATIONS,
+                ..Default::default()
+            },
+        )?;
+        selection.fit.model = model;
+        selection.consistent = Some(consistent);
+    }
+    Ok(selection)
 }
+
+/// Iterations of the consistent projection inside identification (measured on the
+/// identification set: the Mahalanobis distance of the projection changes by 0.4 % from 50 to
+/// 1000 iterations, which take 0.4 s and 9 s).
+const CONSISTENT_ITERATIONS: usize = 50;

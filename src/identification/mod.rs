@@ -9,6 +9,7 @@ pub mod consistent;
 pub mod data;
 pub mod energy;
 pub mod excitation;
+pub mod excitation_set;
 pub mod fit;
 pub mod fourier_fit;
 pub mod last_link;

@@ -60,6 +60,12 @@ pub struct PowerModel {
     /// that its parameter covariance does not explain (cross-validated), W.
     #[serde(default, rename = "structure_sigma_W")]
     pub structure_sigma: f64,
+    /// Relative standard deviation of the mean active power `|P - P0|` on motions the model
+    /// was not fitted on that its parameter covariance does not explain (cross-validated),
+    /// dimensionless: the part of the structure error that grows with how hard the robot
+    /// works.
+    #[serde(default)]
+    pub structure_rel: f64,
 }
 
 impl PowerModel {
@@ -78,6 +84,7 @@ impl PowerModel {
             signal: PowerSignal::Total,
             covariance: Vec::new(),
             structure_sigma: 0.0,
+            structure_rel: 0.0,
         })
     }
 
@@ -133,11 +140,13 @@ impl PowerModel {
         ] {
             crate::error::ensure_finite(v, what).map_err(|e| bad(e.to_string()))?;
         }
-        if !(self.structure_sigma.is_finite() && self.structure_sigma >= 0.0) {
-            return Err(bad(format!(
-                "structure_sigma_W = {} must be finite and >= 0",
-                self.structure_sigma
-            )));
+        for (what, v) in [
+            ("structure_sigma_W", self.structure_sigma),
+            ("structure_rel", self.structure_rel),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(format!("{what} = {v} must be finite and >= 0")));
+            }
         }
         Ok(())
     }
@@ -375,7 +384,8 @@ impl PowerModel {
     /// Predicted energy of the modelled signal (J) along `traj` with the payloads of
     /// `events` (as in [`PowerModel::energy_with_payloads`]), with its 95 % interval: the
     /// parameter covariance propagated through the energy (which is linear in the base
-    /// parameters) plus the cross-validated structure error over the motion's duration.
+    /// parameters) plus the cross-validated structure error, `structure_sigma_W` times the
+    /// motion's duration and `structure_rel` times its active energy `integral |P - P0| dt`.
     /// `dt`: integration step, s.
     pub fn predict(
         &self,
@@ -397,7 +407,8 @@ impl PowerModel {
         let h = traj.duration() / steps as f64;
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
-        let (mut motor, mut grid) = (0.0, 0.0);
+        let (mut motor, mut grid, mut active) = (0.0, 0.0, 0.0);
+        let standby: f64 = self.constant.iter().sum();
         let mut g = vec![0.0; np];
         let mut k = 0usize;
         self.each_state(robot, traj, events, efficiency, &t, |e| {
@@ -406,6 +417,8 @@ impl PowerModel {
             let total: f64 = e.p.iter().sum();
             motor += weight * total;
             grid += weight * total.max(0.0);
+            let signal = if clipped { total.max(0.0) } else { total };
+            active += weight * (signal - standby).abs();
             if clipped && total < 0.0 {
                 return;
             }
@@ -427,7 +440,10 @@ impl PowerModel {
             0.0
         };
         let duration = traj.duration();
-        let sigma = (param_var + (self.structure_sigma * duration).powi(2)).sqrt();
+        let sigma = (param_var
+            + (self.structure_sigma * duration).powi(2)
+            + (self.structure_rel * active).powi(2))
+        .sqrt();
         Ok(Prediction {
             energy_j: if clipped { grid } else { motor },
             interval_j: 1.96 * sigma,

@@ -5,7 +5,7 @@
 //! the model the predicted energy rises again at low speed, as the twin's does.
 
 use crate::error::Result;
-use crate::identification::fit::{Estimator, Samples, fit};
+use crate::identification::fit::{Estimator, Samples, Weighting, fit};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::identification::states::States;
@@ -20,7 +20,7 @@ pub fn identify(
     p: &[f64],
 ) -> Result<Estimate> {
     let samples = Samples::from_states(robot, model, states, p)?;
-    let f = fit(model, &samples, Estimator::Pmsm, &|_| true)?;
+    let f = fit(model, &samples, Estimator::Pmsm, Weighting::None, &|_| true)?;
     *model = f.model;
     Ok(f.estimate)
 }

@@ -21,14 +21,18 @@ fn heldout(w: &mut String, r: &Results) {
     let _ = writeln!(
         w,
         "The model `{}` was identified from {} excitations over the workspace carrying known \
-         loads of {} kg, with the estimator chosen by cross-validation (leave one run out; \
-         mean-power error per candidate: {}; structure error {:.3} W; residual {:.3} W; {} \
-         of {} base parameters with relative std < 1 %). It then predicts {} motions drawn \
-         from seed {} that no identification saw (random Fourier motions, point-to-point \
-         moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the 10 Hz log of \
-         each (positions smoothed and differentiated) and from the commanded trajectory. The \
-         baseline is what a user has without identification: the URDF's rigid bodies and \
-         friction with the data-sheet efficiency. The twin's truth only scores.\n",
+         loads of {} kg, designed together ({} of their stacked 10 Hz power regressor, {} \
+         rounds, condition number {:.0}, {:.1} s), with the estimator chosen by \
+         cross-validation (leave one run out; mean-power error per candidate: {}; weighting \
+         `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
+         95 % intervals add to the parameter covariance a structure error fitted to the \
+         cross-validation pieces ({:.3} W plus {:.2} % of the active power). It then predicts \
+         {} motions drawn from seed {} that no identification saw (random Fourier motions, \
+         point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
+         10 Hz log of each (positions smoothed and differentiated) and from the commanded \
+         trajectory. The baseline is what a user has without identification: the URDF's \
+         rigid bodies and friction with the data-sheet efficiency. The twin's truth only \
+         scores.\n",
         m.name,
         m.excitation_conds.len(),
         m.loads_kg
@@ -36,14 +40,32 @@ fn heldout(w: &mut String, r: &Results) {
             .map(|l| format!("{l}"))
             .collect::<Vec<_>>()
             .join(", "),
+        match m.design.criterion {
+            crate::identification::excitation_set::SetCriterion::Cond => "condition number",
+            crate::identification::excitation_set::SetCriterion::DOptimal => "D-optimality",
+        },
+        m.design.rounds,
+        m.design.stacked_cond,
+        m.design.wall_s,
         m.cv.iter()
             .map(|c| format!("{} {:.3} W", c.estimator.name(), c.mean_power_rms_w))
             .collect::<Vec<_>>()
             .join(", "),
-        m.structure_sigma_w,
+        m.weighting.name(),
+        if m.consistent {
+            ", made physically consistent"
+        } else {
+            ""
+        },
         m.residual_rms_w,
         m.well_determined,
         m.parameters,
+        m.well_determined_max_error_pct
+            .map_or(String::new(), |e| format!(
+                ", at most {e:.2} % from the truth"
+            )),
+        m.structure_sigma_w,
+        100.0 * m.structure_rel,
         h.motions.len(),
         h.seed
     );
@@ -122,6 +144,40 @@ fn heldout(w: &mut String, r: &Results) {
     let _ = writeln!(w);
 }
 
+/// The held-out model's base parameters against the twin's truth.
+fn model_parameters(w: &mut String, r: &Results) {
+    let m = &r.model;
+    let _ = writeln!(
+        w,
+        "## The held-out model's base parameters against the truth\n\n{} of {} base \
+         parameters have a relative standard deviation below {} %{}. Truth: the twin's base \
+         parameters (SI; scoring only).\n",
+        m.well_determined,
+        m.parameters,
+        WELL_EXCITED_REL_STD_PCT,
+        m.well_determined_max_error_pct
+            .map_or(String::new(), |e| format!(
+                "; their largest error is {e:.3} %"
+            ))
+    );
+    header(
+        w,
+        &["parameter", "identified", "true", "error %", "rel. std %"],
+    );
+    for p in &m.table2 {
+        let _ = writeln!(
+            w,
+            "| {} | {:.6} | {:.6} | {} | {} |",
+            p.name,
+            p.identified,
+            p.truth,
+            opt(p.error_pct, |x| format!("{x:+.3}")),
+            opt(p.rel_std_pct, |x| format!("{x:.3}"))
+        );
+    }
+    let _ = writeln!(w);
+}
+
 /// Render the report. `plots` are the stems of the charts written beside it (`stem.svg`,
 /// `stem.png`) with a caption each.
 pub fn render(r: &Results, plots: &[(String, String)]) -> String {
@@ -156,6 +212,7 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     );
 
     heldout(w, r);
+    model_parameters(w, r);
 
     let _ = writeln!(
         w,

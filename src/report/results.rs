@@ -7,7 +7,9 @@ use serde::Serialize;
 
 use crate::dataset::meta::Program;
 use crate::identification::consistency::Consistency;
-use crate::identification::fit::CvScore;
+use crate::identification::excitation_set::SetCriterion;
+use crate::identification::fit::{CvScore, Weighting};
+use crate::report::markdown::WELL_EXCITED_REL_STD_PCT;
 use crate::validation::heldout::Heldout;
 use crate::validation::payloads::CaseRow;
 use crate::validation::reproduce::{Outcome, StageTime};
@@ -57,7 +59,15 @@ pub struct ModelInfo {
     /// Structure error of the chosen model (cross-validated), W.
     #[serde(rename = "structure_sigma_W")]
     pub structure_sigma_w: f64,
-    /// Condition number of each identification excitation's regressor.
+    /// Relative structure error of the chosen model's active power (cross-validated).
+    pub structure_rel: f64,
+    /// Weighting of the samples in the fit (`none`, `per-log`, `power-level`).
+    pub weighting: Weighting,
+    /// Whether the model was made physically consistent in the pipeline.
+    pub consistent: bool,
+    /// How the identification set was designed.
+    pub design: DesignInfo,
+    /// Condition number of each identification excitation's own regressor.
     pub excitation_conds: Vec<f64>,
     /// Known load carried in each identification run, kg.
     pub loads_kg: Vec<f64>,
@@ -66,8 +76,25 @@ pub struct ModelInfo {
     pub residual_rms_w: f64,
     /// Base parameters whose relative standard deviation is below 1 %.
     pub well_determined: usize,
+    /// Largest absolute error against the twin's truth of those, % (`null` when none).
+    pub well_determined_max_error_pct: Option<f64>,
     /// Base parameters in all.
     pub parameters: usize,
+    /// Identified against true base parameters (truth only scores).
+    pub table2: Vec<ParamRow>,
+}
+
+/// The design of the identification set.
+#[derive(Debug, Clone, Serialize)]
+pub struct DesignInfo {
+    /// Criterion (`cond` or `d-optimal`) of the stacked regressor.
+    pub criterion: SetCriterion,
+    /// Block-coordinate rounds.
+    pub rounds: usize,
+    /// Condition number of the stacked, column-scaled regressor of all excitations.
+    pub stacked_cond: f64,
+    /// Wall time of the design, s.
+    pub wall_s: f64,
 }
 
 /// Twin and logger settings.
@@ -151,6 +178,11 @@ pub struct SweepResults {
 impl Results {
     /// The results of `outcome`; `settings` describe the run, `total_wall_s` its wall time.
     pub fn new(outcome: &Outcome, settings: Settings, total_wall_s: f64) -> Results {
+        let well: Vec<&ParamRow> = outcome
+            .parameters
+            .iter()
+            .filter(|p| p.rel_std_pct.is_some_and(|s| s < WELL_EXCITED_REL_STD_PCT))
+            .collect();
         Results {
             schema_version: SCHEMA_VERSION,
             program: Program::current(),
@@ -188,6 +220,15 @@ impl Results {
                 name: outcome.model_name(),
                 cv: outcome.idset.selection.scores.clone(),
                 structure_sigma_w: outcome.model.structure_sigma,
+                structure_rel: outcome.model.structure_rel,
+                weighting: outcome.idset.weighting,
+                consistent: outcome.idset.selection.consistent.is_some(),
+                design: DesignInfo {
+                    criterion: outcome.idset.criterion,
+                    rounds: outcome.idset.rounds,
+                    stacked_cond: outcome.idset.set_cond,
+                    wall_s: outcome.idset.design_s,
+                },
                 excitation_conds: outcome.idset.conds.clone(),
                 loads_kg: outcome
                     .idset
@@ -200,17 +241,14 @@ impl Results {
                     })
                     .collect(),
                 residual_rms_w: outcome.idset.selection.fit.estimate.residual_rms,
-                well_determined: outcome
-                    .idset
-                    .selection
-                    .fit
-                    .estimate
-                    .rel_std
+                well_determined: well.len(),
+                well_determined_max_error_pct: well
                     .iter()
-                    .take(outcome.model.theta.len())
-                    .filter(|r| **r < 0.01)
-                    .count(),
+                    .filter_map(|p| p.error_pct)
+                    .map(f64::abs)
+                    .reduce(f64::max),
                 parameters: outcome.model.theta.len(),
+                table2: outcome.parameters.clone(),
             },
             table4: outcome.cases.rows.clone(),
             sweep: SweepResults {

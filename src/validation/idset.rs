@@ -1,21 +1,26 @@
 //! The identification experiment a user would run on a robot: several excitations of every
 //! joint about different centres of the workspace, each carrying a different known payload
-//! (from none to the rated payload), run on the twin; only their logs go on to
-//! identification ([`crate::identification::fit::identify_logs`]), which chooses its
-//! estimator by cross-validation.
+//! (from none to the rated payload), designed together so that their stacked regressor at the
+//! logging rate is well conditioned ([`crate::identification::excitation_set`]), run on the
+//! twin; only their logs go on to identification
+//! ([`crate::identification::fit::identify_logs`]), which chooses its estimator by
+//! cross-validation.
 
 use rayon::prelude::*;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
-use crate::identification::excitation::{ExcitationOptions, design};
-use crate::identification::fit::{FitOptions, Selection, identify_logs};
+use crate::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
+use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
 use crate::model::payload::{Payload, PayloadEvent};
 use crate::trajectory::fourier::Fourier;
 use crate::trajectory::limits::IRB1200_ACCEL_LIMITS;
 use crate::validation::rig::{Progress, Rig};
+
+/// Harmonics of each excitation (and of the Fourier route its log is read along).
+const HARMONICS: usize = 5;
 
 /// Centre of mass of the identification loads in the flange frame, m (a cube bolted to the
 /// flange face).
@@ -34,11 +39,13 @@ pub struct IdSetOptions {
     pub accel_limits: Vec<f64>,
     /// Stretches of 10 s each excitation runs (whole periods of its base frequency).
     pub periods: usize,
-    /// CMA-ES starts per design.
-    pub starts: usize,
-    /// Objective evaluations per start.
+    /// Criterion of the set design.
+    pub criterion: SetCriterion,
+    /// Block-coordinate rounds of the set design.
+    pub rounds: usize,
+    /// Objective evaluations per excitation and round.
     pub max_evals: usize,
-    /// Seed of the designs (excitation `k` uses `seed + k`).
+    /// Seed of the design.
     pub seed: u64,
     /// Identification settings.
     pub fit: FitOptions,
@@ -60,7 +67,8 @@ impl IdSetOptions {
             base_freq_hz: vec![0.1, 0.2, 0.1, 0.2],
             accel_limits: IRB1200_ACCEL_LIMITS.to_vec(),
             periods: 2,
-            starts: 1,
+            criterion: SetCriterion::DOptimal,
+            rounds: 2,
             max_evals: if quick { 300 } else { 800 },
             seed: 101,
             fit: FitOptions::default(),
@@ -72,8 +80,19 @@ impl IdSetOptions {
 pub struct IdSet {
     /// The commanded excitations.
     pub trajectories: Vec<Fourier>,
-    /// Condition number of each excitation's total-power regressor after its design.
+    /// Condition number of each excitation's own regressor (base parameters, copper and
+    /// standby columns at the logging rate, columns scaled to unit norm) after the design.
     pub conds: Vec<f64>,
+    /// Condition number of the stacked regressor of all excitations after the design.
+    pub set_cond: f64,
+    /// Wall time of the design, s.
+    pub design_s: f64,
+    /// Criterion of the design.
+    pub criterion: SetCriterion,
+    /// Block-coordinate rounds of the design.
+    pub rounds: usize,
+    /// Weighting of the samples in the fit.
+    pub weighting: Weighting,
     /// The known payload timeline of each run.
     pub payloads: Vec<Vec<PayloadEvent>>,
     /// The twin's dataset of each run (truth included: for scoring and files only).
@@ -87,7 +106,6 @@ pub struct IdSet {
 /// Design, run and identify the set on `rig`.
 pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<IdSet> {
     let robot = rig.robot;
-    let n = robot.dof();
     if opts.centres.is_empty()
         || opts.centres.len() != opts.loads_kg.len()
         || opts.centres.len() != opts.base_freq_hz.len()
@@ -99,58 +117,78 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             opts.base_freq_hz.len()
         )));
     }
-    progress.stage(
-        "identification set: design and twin runs",
-        opts.centres.len(),
-    );
-    let runs: Vec<(Fourier, f64, Vec<PayloadEvent>, Dataset)> = opts
-        .centres
-        .par_iter()
-        .zip(&opts.loads_kg)
+    let payloads = opts
+        .loads_kg
+        .iter()
+        .map(|&load| {
+            (load > 0.0)
+                .then(|| Payload::cube(&format!("load {load} kg"), load, LOAD_COM_M.into()))
+                .transpose()
+        })
+        .collect::<Result<Vec<_>>>()?;
+    progress.stage("identification set: joint design", 1);
+    let design = design_set(
+        robot,
+        &SetOptions {
+            members: opts
+                .centres
+                .iter()
+                .zip(&opts.base_freq_hz)
+                .zip(&payloads)
+                .map(|((centre, &f), payload)| Member {
+                    centre: centre.clone(),
+                    base_freq_hz: f,
+                    // Each excitation lasts `periods` x 10 s.
+                    periods: ((opts.periods as f64) * 10.0 * f).round().max(1.0) as usize,
+                    payload: payload.clone(),
+                })
+                .collect(),
+            harmonics: HARMONICS,
+            sample_rate_hz: rig.sensor.rate_hz,
+            min_speed: opts.fit.min_speed,
+            criterion: opts.criterion,
+            accel_limits: opts.accel_limits.clone(),
+            position_margin: 0.05,
+            limit_fraction: 0.9,
+            floor_z: 0.05,
+            base_radius: 0.15,
+            rounds: opts.rounds,
+            max_evals: opts.max_evals,
+            seed: opts.seed,
+        },
+    )?;
+    progress.advance();
+    progress.stage("identification set: twin runs", opts.centres.len());
+    let runs: Vec<(Fourier, Vec<PayloadEvent>, Dataset)> = design
+        .trajectories
+        .into_par_iter()
+        .zip(payloads)
         .enumerate()
-        .map(|(k, (centre, &load))| {
-            let mut o = ExcitationOptions::new(
-                robot,
-                (0..n).collect(),
-                centre.clone(),
-                opts.accel_limits.clone(),
-            );
-            let f = opts.base_freq_hz[k];
-            o.base_freq_hz = f;
-            // Each excitation lasts `periods` x 10 s.
-            o.periods = ((opts.periods as f64) * 10.0 * f).round().max(1.0) as usize;
-            o.starts = opts.starts;
-            o.max_evals = opts.max_evals;
-            o.samples = 100;
-            o.seed = opts.seed.wrapping_add(k as u64);
-            let ex = design(robot, &o)?;
-            let events = if load > 0.0 {
-                vec![PayloadEvent {
-                    t_s: 0.0,
-                    payload: Some(Payload::cube(
-                        &format!("load {load} kg"),
-                        load,
-                        LOAD_COM_M.into(),
-                    )?),
-                }]
-            } else {
-                Vec::new()
-            };
+        .map(|(k, (traj, payload))| {
+            let load = opts.loads_kg[k];
+            let events = payload
+                .map(|p| {
+                    vec![PayloadEvent {
+                        t_s: 0.0,
+                        payload: Some(p),
+                    }]
+                })
+                .unwrap_or_default();
             let description = serde_json::json!({
                 "kind": "fourier excitation",
                 "experiment": "identification set",
                 "index": k + 1,
                 "load_kg": load,
             });
-            let ds = rig.run(&ex.trajectory, &events, 100 + k as u64, description)?;
+            let ds = rig.run(&traj, &events, 100 + k as u64, description)?;
             progress.advance();
-            Ok((ex.trajectory, ex.cond_final, events, ds))
+            Ok((traj, events, ds))
         })
         .collect::<Result<_>>()?;
     let logs = runs
         .iter()
         .enumerate()
-        .map(|(k, r)| r.3.log(&format!("identification run {}", k + 1)))
+        .map(|(k, r)| r.2.log(&format!("identification run {}", k + 1)))
         .collect::<Result<Vec<_>>>()?;
     progress.stage("identification: cross-validated fit", 1);
     let routes: Vec<Route> = opts
@@ -158,22 +196,26 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
         .iter()
         .map(|&f| Route::Fourier {
             base_freq_hz: f,
-            harmonics: 5,
+            harmonics: HARMONICS,
         })
         .collect();
     let selection = identify_logs(robot, &logs, &routes, &opts.fit)?;
     progress.advance();
     let mut set = IdSet {
         trajectories: Vec::new(),
-        conds: Vec::new(),
+        conds: design.member_conds,
+        set_cond: design.cond_final,
+        design_s: design.wall_s,
+        criterion: opts.criterion,
+        rounds: opts.rounds,
+        weighting: opts.fit.weighting,
         payloads: Vec::new(),
         datasets: Vec::new(),
         logs,
         selection,
     };
-    for (traj, cond, events, ds) in runs {
+    for (traj, events, ds) in runs {
         set.trajectories.push(traj);
-        set.conds.push(cond);
         set.payloads.push(events);
         set.datasets.push(ds);
     }

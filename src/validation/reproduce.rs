@@ -22,6 +22,7 @@ use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSet, IdSetOptions};
 use crate::validation::payloads::{self, Cases};
 use crate::validation::rig::{Progress, Rig};
+use crate::validation::score::{self, ParamRow};
 use crate::validation::steps::{self, Steps, StepsOptions};
 use crate::validation::sweep::{self, Sweep};
 
@@ -101,6 +102,9 @@ pub struct Outcome {
     /// The model identified from the identification set (used for the held-out benchmark,
     /// Table 4's known payloads and the sweep).
     pub model: PowerModel,
+    /// `model`'s base parameters against the twin's truth (truth only scores), with the
+    /// relative standard deviations of its estimate.
+    pub parameters: Vec<ParamRow>,
     /// The held-out benchmark of `model`.
     pub heldout: Heldout,
     /// The twin's dataset of each held-out motion.
@@ -141,7 +145,13 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     lap("estimators compared on the steps' data (Table 2, in-sample)");
     let idset = idset::run(rig, &plan.idset, progress)?;
     let model = idset.selection.fit.model.clone();
-    lap("identification set: excitations, twin runs, cross-validated fit");
+    let parameters = score::table(
+        rig.robot,
+        rig.drive,
+        &model,
+        &[&idset.selection.fit.estimate],
+    )?;
+    lap("identification set: joint design, twin runs, cross-validated fit");
     let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, progress)?;
     lap("held-out benchmark");
     let efficiency = DATASHEET_EFFICIENCY;
@@ -176,6 +186,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         estimators,
         idset,
         model,
+        parameters,
         heldout,
         heldout_datasets,
         cases,
