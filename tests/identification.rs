@@ -376,3 +376,163 @@ fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
     assert!((0..25).all(|k| (0..6).all(|i| still[i][k] == joints[i][k])));
     assert!((25..50).any(|k| (1..6).any(|i| still[i][k] != joints[i][k])));
 }
+
+mod spline_route {
+    use powertwin::identification::spline::{End, quintic};
+    use powertwin::identification::states::{from_spline, rest_intervals};
+    use rand::RngExt;
+
+    use super::common;
+
+    /// Knot times from 0 s at about `h` s apart, jittered by up to 20 % (seeded).
+    fn knots(count: usize, h: f64, seed: u64) -> Vec<f64> {
+        let mut rng = common::rng(seed);
+        let mut t = vec![0.0];
+        for _ in 1..count {
+            let last = *t.last().unwrap();
+            t.push(last + h * rng.random_range(0.8..1.2));
+        }
+        t
+    }
+
+    #[test]
+    fn quintic_spline_reproduces_polynomials_it_can_represent() {
+        let t = knots(12, 0.1, 1);
+        // A quartic with free ends: the end conditions come from the quartic through the five
+        // samples nearest each end, i.e. the quartic itself, so the spline is the quartic.
+        let p = |x: f64| 0.3 - 1.2 * x + 0.8 * x * x - 0.5 * x.powi(3) + 0.7 * x.powi(4);
+        let dp = |x: f64| -1.2 + 1.6 * x - 1.5 * x * x + 2.8 * x.powi(3);
+        let ddp = |x: f64| 1.6 - 3.0 * x + 8.4 * x * x;
+        let x: Vec<f64> = t.iter().map(|&s| p(s)).collect();
+        let (v, a) = quintic(&t, &x, End::Free, End::Free).unwrap();
+        for k in 0..t.len() {
+            assert!((v[k] - dp(t[k])).abs() < 1e-9, "v at {}: {}", t[k], v[k]);
+            assert!((a[k] - ddp(t[k])).abs() < 1e-7, "a at {}: {}", t[k], a[k]);
+        }
+        // Rest to rest: the minimum-jerk profile 10 s^3 - 15 s^4 + 6 s^5 (s = t / T) is a
+        // quintic with zero velocity and acceleration at both ends, so it is the spline.
+        let big_t = *t.last().unwrap();
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&s| {
+                let u = s / big_t;
+                2.0 * (10.0 * u.powi(3) - 15.0 * u.powi(4) + 6.0 * u.powi(5))
+            })
+            .collect();
+        let (v, a) = quintic(&t, &x, End::Rest, End::Rest).unwrap();
+        for k in 0..t.len() {
+            let u = t[k] / big_t;
+            let dv = 2.0 * 30.0 * u * u * (1.0 - u).powi(2) / big_t;
+            let da = 2.0 * 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / (big_t * big_t);
+            assert!((v[k] - dv).abs() < 1e-9 && (a[k] - da).abs() < 1e-7, "{k}");
+        }
+        // Rest ends are exactly zero (a Coulomb term switches on any non-zero speed).
+        assert_eq!((v[0], a[0], v[11], a[11]), (0.0, 0.0, 0.0, 0.0));
+        // Two samples, free ends: the line.
+        let (v, a) = quintic(&[0.0, 0.5], &[1.0, 2.0], End::Free, End::Free).unwrap();
+        assert_eq!((v, a), (vec![2.0, 2.0], vec![0.0, 0.0]));
+    }
+
+    #[test]
+    fn quintic_spline_differentiates_a_10_hz_sine_and_refuses_bad_input() {
+        // q = sin(w t), w = 2 pi 0.3 Hz, at 10 Hz with jittered stamps.
+        let w = std::f64::consts::TAU * 0.3;
+        let t = knots(80, 0.1, 2);
+        let x: Vec<f64> = t.iter().map(|s| (w * s).sin()).collect();
+        let (v, a) = quintic(&t, &x, End::Free, End::Free).unwrap();
+        let (mut ev, mut ea) = ([0.0f64; 2], [0.0f64; 2]);
+        for k in 0..t.len() {
+            let (dv, da) = (w * (w * t[k]).cos(), -w * w * (w * t[k]).sin());
+            let end = usize::from(k < 4 || k + 4 >= t.len());
+            ev[end] = ev[end].max((v[k] - dv).abs() / w);
+            ea[end] = ea[end].max((a[k] - da).abs() / (w * w));
+        }
+        eprintln!("relative errors inside / near the ends: v {ev:?}, a {ea:?}");
+        assert!(
+            ev[0] < 1e-5 && ea[0] < 1e-4,
+            "inside: v {}, a {}",
+            ev[0],
+            ea[0]
+        );
+        assert!(
+            ev[1] < 1e-3 && ea[1] < 1e-2,
+            "near the ends: v {}, a {}",
+            ev[1],
+            ea[1]
+        );
+        let err =
+            |t: &[f64], x: &[f64]| quintic(t, x, End::Free, End::Free).unwrap_err().to_string();
+        assert!(err(&[0.0], &[1.0]).contains("at least 2 samples"));
+        assert!(err(&[0.0, 0.1], &[1.0]).contains("1 positions"));
+        assert!(err(&[0.0, 0.1, 0.1], &[1.0, 2.0, 3.0]).contains("increase (sample 3)"));
+        assert!(err(&[0.0, 0.1, 0.2], &[1.0, f64::NAN, 3.0]).contains("q[2] is NaN"));
+    }
+
+    /// Rest (1 s), a 1 s minimum-jerk move of 0.8 rad on joint 1 and 0.3 rad on joint 2,
+    /// rest (1 s), sampled at `rate` Hz with 1e-5 rad of encoder noise.
+    fn rest_move_rest(rate: f64) -> (Vec<f64>, Vec<Vec<f64>>, impl Fn(f64) -> [f64; 2]) {
+        let mut rng = common::rng(3);
+        let count = (3.0 * rate).round() as usize + 1;
+        let t: Vec<f64> = (0..count).map(|k| k as f64 / rate).collect();
+        let speed = |s: f64| {
+            let u = (s - 1.0).clamp(0.0, 1.0);
+            30.0 * u * u * (1.0 - u).powi(2)
+        };
+        let pos = |s: f64| {
+            let u = (s - 1.0).clamp(0.0, 1.0);
+            10.0 * u.powi(3) - 15.0 * u.powi(4) + 6.0 * u.powi(5)
+        };
+        let q = [0.8, 0.3]
+            .iter()
+            .map(|amp| {
+                t.iter()
+                    .map(|&s| amp * pos(s) + 1e-5 * (rng.random_range(-1.0..1.0f64) * 3f64.sqrt()))
+                    .collect()
+            })
+            .collect();
+        (t, q, move |s: f64| [0.8 * speed(s), 0.3 * speed(s)])
+    }
+
+    #[test]
+    fn spline_route_holds_rests_exactly_still_at_10_and_100_hz() {
+        for rate in [10.0, 100.0] {
+            let (t, q, speed) = rest_move_rest(rate);
+            let s = from_spline(&t, &q).unwrap();
+            let rest = rest_intervals(&t, &q);
+            for (k, &tk) in t.iter().enumerate() {
+                let in_rest = (k > 0 && rest[k - 1]) || (k + 1 < t.len() && rest[k]);
+                // Well inside a rest (the noise must not pass for motion) and well inside the
+                // move (its samples must not pass for rest).
+                if !(0.9..=2.1).contains(&tk) {
+                    assert!(in_rest, "{rate} Hz: sample at {tk} s not at rest");
+                    for i in 0..2 {
+                        assert_eq!((s.dq[i][k], s.ddq[i][k]), (0.0, 0.0));
+                        let first = if tk < 1.0 { 0 } else { t.len() - 1 };
+                        assert_eq!(s.q[i][k], s.q[i][first], "held still");
+                    }
+                }
+                if (1.1..=1.9).contains(&tk) {
+                    assert!(!in_rest, "{rate} Hz: sample at {tk} s at rest");
+                    for i in 0..2 {
+                        let want = speed(tk)[i];
+                        // 10 Hz: the rest-to-rest spline follows the minimum-jerk move; 100 Hz:
+                        // the interpolating spline differentiates the noise too.
+                        let tol = if rate < 20.0 { 0.01 } else { 0.02 };
+                        assert!(
+                            (s.dq[i][k] - want).abs() < tol * 1.875 * [0.8, 0.3][i],
+                            "{rate} Hz, joint {}, {tk} s: {} vs {want}",
+                            i + 1,
+                            s.dq[i][k]
+                        );
+                    }
+                }
+            }
+        }
+        let err = from_spline(&[0.0], &[vec![1.0]]).unwrap_err().to_string();
+        assert!(err.contains("at least 2 samples"), "{err}");
+        let err = from_spline(&[0.0, 0.1], &[vec![1.0, f64::INFINITY]])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("q1[2] is inf"), "{err}");
+    }
+}

@@ -4,7 +4,9 @@
 
 use crate::error::{Error, Result};
 use crate::identification::fourier_fit::fit_fourier;
-use crate::identification::states::{States, from_fourier, from_smoothing};
+use crate::identification::states::{
+    REST_SPEED, States, from_fourier, from_smoothing, from_spline,
+};
 use crate::measurement::{Log, PowerSignal};
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
@@ -14,12 +16,6 @@ use crate::trajectory::sampled::Sampled;
 /// tracking error of a joint held still while the others move (below 1e-3 rad on the twin),
 /// well below any excitation's amplitude.
 pub const EXCITED_RANGE: f64 = 0.01;
-
-/// Joint speed (rad/s) below which a smoothed joint counts as standing still: its velocity
-/// and acceleration are set to zero, so that Coulomb friction (whose sign the noise would
-/// otherwise flip) and its copper loss are not predicted for a joint held by stiction. Ten
-/// times the velocity noise that 1e-5 rad of encoder noise gives at 10 Hz.
-pub const REST_SPEED: f64 = 1e-3;
 
 /// How positions become velocities and accelerations.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,7 +27,13 @@ pub enum Route {
         /// Harmonics.
         harmonics: usize,
     },
-    /// Local polynomial smoothing (any motion).
+    /// Rests held still and the least-jerk quintic spline through the samples between them
+    /// (any motion; [`from_spline`]).
+    Spline,
+    /// Local polynomial smoothing (any motion); a smoothed joint slower than [`REST_SPEED`]
+    /// at a sample gets zero velocity and acceleration there, so that Coulomb friction
+    /// (whose sign the noise would otherwise flip) and its copper loss are not predicted for a
+    /// joint held by stiction.
     Smoothing {
         /// Window, samples (odd).
         window: usize,
@@ -120,6 +122,7 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             base_freq_hz,
             harmonics,
         } => from_fourier(&fit_fourier(t, q, base_freq_hz, harmonics)?.series, t),
+        Route::Spline => from_spline(t, q)?,
         Route::Smoothing { window, degree } => {
             let mut s = from_smoothing(t, q, window, degree)?;
             for i in 0..n {
@@ -138,7 +141,7 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             base_freq_hz,
             harmonics,
         } => Box::new(fit_fourier(t, q, base_freq_hz, harmonics)?.series),
-        Route::Smoothing { .. } => Box::new(Sampled::new(
+        Route::Spline | Route::Smoothing { .. } => Box::new(Sampled::new(
             states.t.clone(),
             states.q.clone(),
             Some(states.dq.clone()),
@@ -168,7 +171,7 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
     };
     let motion_t0_s = match route {
         Route::Fourier { .. } => 0.0,
-        Route::Smoothing { .. } => t[0],
+        Route::Spline | Route::Smoothing { .. } => t[0],
     };
     Ok(Prepared {
         states,

@@ -17,5 +17,6 @@ pub mod linear;
 pub mod lsq;
 pub mod model;
 pub mod pmsm;
+pub mod spline;
 pub mod states;
 pub mod steps;

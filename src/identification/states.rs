@@ -1,16 +1,31 @@
 //! Joint states (q, dq, ddq) at the logged sample times: what the regressors are evaluated at.
 //!
-//! Two routes, both from logged positions only:
+//! Routes, all from logged positions only:
 //! - [`from_fourier`]: the paper's route for periodic excitation: the fitted series
 //!   ([`crate::identification::fourier_fit`]) differentiated analytically;
-//! - [`from_smoothing`]: the general route for any motion: a local polynomial least-squares
-//!   fit (Savitzky–Golay) around each sample, differentiated analytically. Near the ends the
-//!   window is shifted inwards, so no sample is lost.
+//! - [`from_spline`]: the general route for any motion: rests found in the log are held
+//!   exactly still, and each motion between them is the least-jerk quintic spline through the
+//!   samples ([`crate::identification::spline`]), starting and stopping with zero velocity
+//!   and acceleration;
+//! - [`from_smoothing`]: a local polynomial least-squares fit (Savitzky–Golay) around each
+//!   sample, differentiated analytically. Near the ends the window is shifted inwards, so no
+//!   sample is lost.
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result, ensure_finite};
+use crate::identification::spline::{End, quintic};
 use crate::trajectory::Trajectory;
+
+/// Joint speed (rad/s) below which the robot counts as standing still: ten times the
+/// velocity noise that 1e-5 rad of encoder noise gives at 10 Hz.
+pub const REST_SPEED: f64 = 1e-3;
+
+/// Shortest span (s) over which rest is judged: every joint moves less than
+/// `REST_SPEED x REST_WINDOW_S` (1e-4 rad, seven standard deviations of the difference of two
+/// samples with 1e-5 rad of encoder noise) within it. At 10 Hz that is one sample period; a
+/// faster log is judged over as many samples, so the noise never passes for motion.
+pub const REST_WINDOW_S: f64 = 0.1;
 
 /// States of every joint at sample times; vectors are joint-major (`q[i][m]`).
 #[derive(Debug, Clone, PartialEq)]
@@ -119,23 +134,7 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
             "{m} samples are fewer than the smoothing window {window}"
         )));
     }
-    ensure_finite(t, "t")?;
-    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(Error::InvalidInput(format!(
-            "sample times must increase (sample {})",
-            k + 2
-        )));
-    }
-    for (i, c) in q.iter().enumerate() {
-        if c.len() != m {
-            return Err(Error::InvalidInput(format!(
-                "q{} has {} samples, t has {m}",
-                i + 1,
-                c.len()
-            )));
-        }
-        ensure_finite(c, &format!("q{}", i + 1))?;
-    }
+    check_samples(t, q)?;
     let half = window / 2;
     let mut s = States {
         t: t.to_vec(),
@@ -162,4 +161,112 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
         }
     }
     Ok(s)
+}
+
+/// Which sample intervals `[t_k, t_k+1]` the robot stands still in: those inside a span of
+/// at least [`REST_WINDOW_S`] (or one sample period, if longer) over which every joint's
+/// positions stay within [`REST_SPEED`] times the span.
+pub fn rest_intervals(t: &[f64], q: &[Vec<f64>]) -> Vec<bool> {
+    let m = t.len();
+    let mut rest = vec![false; m.saturating_sub(1)];
+    for a in 0..m.saturating_sub(1) {
+        let b = (a + 1..m)
+            .find(|&b| t[b] - t[a] >= REST_WINDOW_S * (1.0 - 1e-9))
+            .unwrap_or(m - 1);
+        let bound = REST_SPEED * (t[b] - t[a]).max(REST_WINDOW_S);
+        let still = q.iter().all(|qi| {
+            let w = &qi[a..=b];
+            let (lo, hi) = w
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                });
+            hi - lo <= bound
+        });
+        if still {
+            rest[a..b].fill(true);
+        }
+    }
+    rest
+}
+
+/// States at the sample times `t` (s, increasing) of positions `q[i][m]` (rad) along the
+/// rest-aware least-jerk route: the samples of each rest ([`rest_intervals`]) are replaced by
+/// their mean and get zero velocity and acceleration; each motion between rests is the
+/// quintic spline through its samples, starting and ending at rest (or free at a log end
+/// that is not at rest).
+///
+/// Errors: fewer than 2 samples, series of the wrong length, non-finite values, times that
+/// do not increase.
+pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
+    let m = t.len();
+    if m < 2 {
+        return Err(Error::InvalidInput(format!(
+            "the spline route needs at least 2 samples, got {m}"
+        )));
+    }
+    check_samples(t, q)?;
+    let rest = rest_intervals(t, q);
+    let n = q.len();
+    let mut s = States {
+        t: t.to_vec(),
+        q: q.to_vec(),
+        dq: vec![vec![0.0; m]; n],
+        ddq: vec![vec![0.0; m]; n],
+    };
+    // Maximal stretches of intervals as sample ranges `first..=last`, and whether at rest.
+    let mut stretches = Vec::new();
+    let mut k = 0;
+    while k < m - 1 {
+        let (still, first) = (rest[k], k);
+        while k < m - 1 && rest[k] == still {
+            k += 1;
+        }
+        stretches.push((still, first, k));
+    }
+    // Rests first, so that the motions start and end at the held positions.
+    for &(_, first, last) in stretches.iter().filter(|r| r.0) {
+        for (held, raw) in s.q.iter_mut().zip(q) {
+            let mean = raw[first..=last].iter().sum::<f64>() / (last - first + 1) as f64;
+            held[first..=last].fill(mean);
+        }
+    }
+    let end = |at_rest: bool| if at_rest { End::Rest } else { End::Free };
+    for &(_, first, last) in stretches.iter().filter(|r| !r.0) {
+        for ((x, v), a) in s.q.iter().zip(&mut s.dq).zip(&mut s.ddq) {
+            let (vel, acc) = quintic(
+                &t[first..=last],
+                &x[first..=last],
+                end(first > 0),
+                end(last < m - 1),
+            )?;
+            v[first..=last].copy_from_slice(&vel);
+            a[first..=last].copy_from_slice(&acc);
+        }
+    }
+    Ok(s)
+}
+
+/// Check sample times (finite, strictly increasing) and position series (one per joint, as
+/// long as `t`, finite).
+fn check_samples(t: &[f64], q: &[Vec<f64>]) -> Result<()> {
+    let m = t.len();
+    ensure_finite(t, "t")?;
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(Error::InvalidInput(format!(
+            "sample times must increase (sample {})",
+            k + 2
+        )));
+    }
+    for (i, c) in q.iter().enumerate() {
+        if c.len() != m {
+            return Err(Error::InvalidInput(format!(
+                "q{} has {} samples, t has {m}",
+                i + 1,
+                c.len()
+            )));
+        }
+        ensure_finite(c, &format!("q{}", i + 1))?;
+    }
+    Ok(())
 }

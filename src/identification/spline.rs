@@ -1,0 +1,209 @@
+//! The quintic interpolating spline through sampled positions: the C4 piecewise quintic that
+//! passes through every sample and, among all interpolants, has the least `∫ q'''(t)^2 dt`
+//! (the least squared jerk). Its knot velocities and accelerations define it completely: a
+//! quintic Hermite piece per interval ([`crate::trajectory::sampled::Sampled`] with positions,
+//! velocities and accelerations) reproduces it exactly.
+//!
+//! Each end is either a [`End::Rest`] (velocity and acceleration zero, as where a robot stands
+//! still) or [`End::Free`] (third and fourth derivatives those of the quartic through the
+//! samples nearest the end, for a motion that runs on beyond the log). Interior knots join with continuous third and fourth derivatives,
+//! a block-tridiagonal system in the knot (velocity, acceleration) pairs that is solved in
+//! O(samples).
+
+use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+
+use crate::error::{Error, Result, ensure_finite};
+
+/// Samples nearest a [`End::Free`] end whose interpolating polynomial (a quartic) gives the
+/// end's third and fourth derivatives: the local fit the smoothing route used at the ends.
+/// It follows a motion that runs on beyond the log better than the natural end of the
+/// least-jerk interpolant (third and fourth derivatives zero), which bends the accelerations
+/// of the last samples (on the held-out benchmark: power RMSE worst 4.1 W instead of 1.8 W).
+pub const END_SAMPLES: usize = 5;
+
+/// Condition at an end of the spline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// Standing still: velocity and acceleration exactly zero.
+    Rest,
+    /// The motion runs on beyond the samples: third and fourth derivatives those of the
+    /// polynomial through the [`END_SAMPLES`] samples nearest the end.
+    Free,
+}
+
+/// Scaled third and fourth derivatives at both ends of a quintic Hermite piece of length `h`
+/// (s) as linear functions of the scaled end values: with `V = v h`, `A = a h^2` and
+/// `dx = x1 - x0`, row `r` gives `[dx, V0, A0, V1, A1]` coefficients of
+/// `h^3 q'''(0)`, `h^3 q'''(h)`, `h^4 q''''(0)`, `h^4 q''''(h)`.
+const JOINS: [[f64; 5]; 4] = [
+    [60.0, -36.0, -9.0, -24.0, 3.0],
+    [60.0, -24.0, -3.0, -36.0, 9.0],
+    [-360.0, 192.0, 36.0, 168.0, -24.0],
+    [360.0, -168.0, -24.0, -192.0, 36.0],
+];
+
+/// One piece's contribution to a derivative condition (row `r` of [`JOINS`], divided by
+/// `h^p` with `p` = 3 or 4 so that it is in rad/s^p): the coefficients of `(v0, a0)`,
+/// `(v1, a1)` (physical units) and the constant from the position step `dx` (rad).
+fn piece_row(r: usize, h: f64, dx: f64) -> ([f64; 2], [f64; 2], f64) {
+    let c = JOINS[r];
+    let p = if r < 2 { 3 } else { 4 };
+    let s = h.powi(p);
+    (
+        [c[1] * h / s, c[2] * h * h / s],
+        [c[3] * h / s, c[4] * h * h / s],
+        c[0] * dx / s,
+    )
+}
+
+/// Knot velocities (rad/s) and accelerations (rad/s^2) of the quintic interpolating spline
+/// through positions `x` (rad) at times `t` (s, strictly increasing, at least 2), with the
+/// end conditions `start` and `end`. A [`End::Rest`] end gets exactly zero velocity and
+/// acceleration.
+///
+/// Errors ([`Error::InvalidInput`]): fewer than 2 samples, lengths that differ, non-finite
+/// values, times that do not increase, or a system that cannot be solved (knots far too
+/// close for the arithmetic).
+pub fn quintic(t: &[f64], x: &[f64], start: End, end: End) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = t.len();
+    if n < 2 || x.len() != n {
+        return Err(Error::InvalidInput(format!(
+            "a spline needs at least 2 samples and one position per time ({} times, {} positions)",
+            n,
+            x.len()
+        )));
+    }
+    ensure_finite(t, "t")?;
+    ensure_finite(x, "q")?;
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(Error::InvalidInput(format!(
+            "spline times must increase (sample {})",
+            k + 2
+        )));
+    }
+    if n == 2 && start == End::Free && end == End::Free {
+        // Two samples give no third or fourth derivative, and every quadratic through them
+        // meets both ends' conditions: the least-acceleration one is the line.
+        let v = (x[1] - x[0]) / (t[1] - t[0]);
+        return Ok((vec![v; 2], vec![0.0; 2]));
+    }
+    // Block rows: lower[k] u[k-1] + diag[k] u[k] + upper[k] u[k+1] = rhs[k], u = (v, a).
+    let mut lower = vec![Matrix2::zeros(); n];
+    let mut diag = vec![Matrix2::zeros(); n];
+    let mut upper = vec![Matrix2::zeros(); n];
+    let mut rhs = vec![Vector2::zeros(); n];
+    // Interior knots: q''' and q'''' continuous. Left piece k-1 at its end (rows 1, 3),
+    // right piece k at its start (rows 0, 2).
+    for k in 1..n - 1 {
+        let (hl, hr) = (t[k] - t[k - 1], t[k + 1] - t[k]);
+        let (dl, dr) = (x[k] - x[k - 1], x[k + 1] - x[k]);
+        for (row, (left, right)) in [(1, 0), (3, 2)].into_iter().enumerate() {
+            let (l0, l1, lc) = piece_row(left, hl, dl);
+            let (r0, r1, rc) = piece_row(right, hr, dr);
+            // left(end) - right(start) = 0
+            for c in 0..2 {
+                lower[k][(row, c)] = l0[c];
+                diag[k][(row, c)] = l1[c] - r0[c];
+                upper[k][(row, c)] = -r1[c];
+            }
+            rhs[k][row] = rc - lc;
+        }
+    }
+    // Ends.
+    let last = n - 1;
+    match start {
+        End::Rest => diag[0] = Matrix2::identity(),
+        End::Free => {
+            let (h, d) = (t[1] - t[0], x[1] - x[0]);
+            let near = n.min(END_SAMPLES);
+            let want = end_derivatives(&t[..near], &x[..near], t[0])?;
+            for (row, r) in [0, 2].into_iter().enumerate() {
+                let (p0, p1, pc) = piece_row(r, h, d);
+                for c in 0..2 {
+                    diag[0][(row, c)] = p0[c];
+                    upper[0][(row, c)] = p1[c];
+                }
+                rhs[0][row] = want[row] - pc;
+            }
+        }
+    }
+    match end {
+        End::Rest => {
+            lower[last] = Matrix2::zeros();
+            diag[last] = Matrix2::identity();
+            rhs[last] = Vector2::zeros();
+        }
+        End::Free => {
+            let (h, d) = (t[last] - t[last - 1], x[last] - x[last - 1]);
+            let near = n - n.min(END_SAMPLES);
+            let want = end_derivatives(&t[near..], &x[near..], t[last])?;
+            for (row, r) in [1, 3].into_iter().enumerate() {
+                let (p0, p1, pc) = piece_row(r, h, d);
+                for c in 0..2 {
+                    lower[last][(row, c)] = p0[c];
+                    diag[last][(row, c)] = p1[c];
+                }
+                rhs[last][row] = want[row] - pc;
+            }
+        }
+    }
+    // Block Thomas algorithm.
+    let singular = || {
+        Error::InvalidInput(
+            "the spline's equations are singular (sample times too close together?)".into(),
+        )
+    };
+    for k in 1..n {
+        let inv = diag[k - 1].try_inverse().ok_or_else(singular)?;
+        let w = lower[k] * inv;
+        diag[k] -= w * upper[k - 1];
+        let carried = w * rhs[k - 1];
+        rhs[k] -= carried;
+    }
+    let mut u = vec![Vector2::zeros(); n];
+    u[last] = diag[last].try_inverse().ok_or_else(singular)? * rhs[last];
+    for k in (0..last).rev() {
+        u[k] = diag[k].try_inverse().ok_or_else(singular)? * (rhs[k] - upper[k] * u[k + 1]);
+    }
+    let mut v: Vec<f64> = u.iter().map(|p| p[0]).collect();
+    let mut a: Vec<f64> = u.iter().map(|p| p[1]).collect();
+    // Exact zeros at rest (the solve leaves round-off there, and a Coulomb term switches on
+    // any non-zero speed).
+    for (k, e) in [(0, start), (last, end)] {
+        if e == End::Rest {
+            v[k] = 0.0;
+            a[k] = 0.0;
+        }
+    }
+    if let Some(bad) = v.iter().chain(&a).find(|c| !c.is_finite()) {
+        return Err(Error::InvalidInput(format!(
+            "the spline overflowed ({bad}); are the sample times too close?"
+        )));
+    }
+    Ok((v, a))
+}
+
+/// Third (rad/s^3) and fourth (rad/s^4) derivatives at time `at` of the polynomial of
+/// degree `len - 1` through the points `(t, x)` (at most [`END_SAMPLES`]); zero where the
+/// degree is too low.
+fn end_derivatives(t: &[f64], x: &[f64], at: f64) -> Result<[f64; 2]> {
+    let m = t.len();
+    // Local time scaled by the span keeps the Vandermonde matrix well conditioned.
+    let scale = t[m - 1] - t[0];
+    let v = DMatrix::from_fn(m, m, |r, c| ((t[r] - at) / scale).powi(c as i32));
+    let c = v
+        .lu()
+        .solve(&DVector::from_column_slice(x))
+        .ok_or_else(|| Error::InvalidInput("the spline's end polynomial is singular".into()))?;
+    let d3 = if m > 3 {
+        6.0 * c[3] / scale.powi(3)
+    } else {
+        0.0
+    };
+    let d4 = if m > 4 {
+        24.0 * c[4] / scale.powi(4)
+    } else {
+        0.0
+    };
+    Ok([d3, d4])
+}
