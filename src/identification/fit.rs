@@ -723,7 +723,7 @@ fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
 /// Choose among `candidates` by cross-validation over the folds of the samples (see
 /// [`Samples::new`]), then fit the chosen one on all samples. On the held-out pieces, the
 /// mean-power errors beyond what the fold's parameter covariance and residual explain give
-/// the model's structure error ([`structure_fit`]: `structure_sigma_W` and `structure_rel`),
+/// the model's structure error (fitted by `structure_fit`: `structure_sigma_W` and `structure_rel`),
 /// used for prediction intervals.
 ///
 /// Errors: no candidates, or a fit that fails on all data.
