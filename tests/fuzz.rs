@@ -276,7 +276,8 @@ fn decoder_failed(e: &powertwin::Error) -> bool {
     e.to_string().contains("the decoder failed")
 }
 
-/// Decoder panics that a reader caught and returned as errors, counted by cause.
+/// Decoder panics that a reader caught and returned as errors, counted by cause (the panic
+/// message with every number written `N`, so that one kind is one line).
 #[derive(Default)]
 struct Caught(Mutex<std::collections::BTreeMap<String, usize>>);
 
@@ -284,10 +285,22 @@ impl Caught {
     /// Count `e` if it is a caught decoder panic ([`decoder_failed`]).
     fn note(&self, e: &powertwin::Error) {
         let text = e.to_string();
-        if let Some(at) = text.find("the decoder failed (") {
-            let cause = text[at + "the decoder failed (".len()..].trim_end_matches(')');
-            *self.0.lock().unwrap().entry(cause.to_string()).or_default() += 1;
+        let Some(at) = text.find("the decoder failed (") else {
+            return;
+        };
+        let message = &text[at + "the decoder failed (".len()..];
+        let message = message.strip_suffix(')').unwrap_or(message);
+        let mut cause = String::new();
+        let mut in_number = false;
+        for c in message.chars() {
+            if !c.is_ascii_digit() {
+                cause.push(c);
+            } else if !in_number {
+                cause.push('N');
+            }
+            in_number = c.is_ascii_digit();
         }
+        *self.0.lock().unwrap().entry(cause).or_default() += 1;
     }
 
     /// Print the count and each cause of `target` to stderr.
