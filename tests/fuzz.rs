@@ -919,7 +919,7 @@ fn log_csv_reader() {
         own_log_csv(false).into_bytes(),
         own_log_csv(true).into_bytes(),
     ];
-    fuzz_log("log-csv", &own, "csv", None, LagOption::Auto, cases(300));
+    fuzz_log("log-csv", &own, "csv", None, LagOption::Auto, cases(150));
     // The RTDE log's power is shifted by a given lag (one working sample), not estimated: a
     // 6-joint lag estimate costs milliseconds a case, and the 3-joint logs fuzz it.
     let rtde = ColumnMap::ur_rtde();
@@ -931,7 +931,7 @@ fn log_csv_reader() {
         "csv",
         Some(&rtde),
         lag,
-        cases(300),
+        cases(150),
     );
     let mapped = vec![mapped_log_csv().into_bytes()];
     for (k, text) in COLUMN_MAPS.iter().enumerate() {
@@ -942,7 +942,7 @@ fn log_csv_reader() {
             "csv",
             Some(&map),
             LagOption::Auto,
-            cases(200),
+            cases(100),
         );
     }
 
@@ -1014,7 +1014,7 @@ fn log_parquet_reader() {
         "parquet",
         None,
         LagOption::Auto,
-        cases(200),
+        cases(100),
     );
     let map = ColumnMap::from_toml_str(PARQUET_MAP, "map").unwrap();
     let seeds = vec![mapped_log_parquet()];
@@ -1025,7 +1025,7 @@ fn log_parquet_reader() {
         "parquet",
         Some(&map),
         lag,
-        cases(200),
+        cases(100),
     );
     let iso = with(
         PARQUET_MAP,
