@@ -922,3 +922,46 @@ pub fn identify_logs(
 /// identification set: the Mahalanobis distance of the projection changes by 0.4 % from 50 to
 /// 1000 iterations, which take 0.4 s and 9 s).
 const CONSISTENT_ITERATIONS: usize = 50;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::StandardNormal;
+
+    /// Pieces whose errors have variance `explained + sigma^2 + (rel A)^2`.
+    fn pieces(sigma: f64, rel: f64, count: usize, seed: u64) -> Vec<Piece> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..count)
+            .map(|_| {
+                let explained_w2: f64 = rng.random_range(0.01..0.1);
+                let active_w: f64 = rng.random_range(20.0..200.0);
+                let sd = (explained_w2 + sigma * sigma + (rel * active_w).powi(2)).sqrt();
+                let z: f64 = rng.sample(StandardNormal);
+                Piece {
+                    error_w: sd * z,
+                    explained_w2,
+                    active_w,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_structure_fit_recovers_a_known_error_model() {
+        // 400 pieces: a constant 0.3 W and 0.5 % of the active power beyond the explained.
+        let (sigma, rel) = structure_fit(&pieces(0.3, 0.005, 400, 1));
+        assert!((sigma - 0.3).abs() < 0.1, "sigma {sigma}");
+        assert!((rel - 0.005).abs() < 0.0012, "rel {rel}");
+        // Errors the covariance explains leave no structure error.
+        let (sigma, rel) = structure_fit(&pieces(0.0, 0.0, 400, 2));
+        assert!(sigma < 0.05 && rel < 5e-4, "sigma {sigma}, rel {rel}");
+        // A relative error alone is found as such.
+        let (sigma, rel) = structure_fit(&pieces(0.0, 0.01, 400, 3));
+        assert!(
+            sigma < 0.2 && (rel - 0.01).abs() < 0.002,
+            "sigma {sigma}, rel {rel}"
+        );
+    }
+}
