@@ -77,6 +77,32 @@ fn identified_model_predicts_the_twins_energy() {
         let e = v["error_vs_simulated_pct"].as_f64().unwrap();
         assert!(e.abs() < 0.3, "{method}: {v}");
     }
+    // Weighted least squares and the consistent model (on by default), or not.
+    let identify = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "--data",
+            data.to_str().unwrap(),
+            "--base-freq",
+            "0.1",
+            "--out",
+            model.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        powertwin(&args)
+    };
+    let (code, _, err) = identify(&["--method", "pmsm", "--weighting", "power-level"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("consistent: the model moved"), "{err}");
+    let (code, _, err) = identify(&["--method", "pmsm", "--unconstrained"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("consistent: the model moved"), "{err}");
+    let (code, _, err) = identify(&["--method", "energy", "--weighting", "per-log"]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("--weighting and --unconstrained apply to"),
+        "{err}"
+    );
 }
 
 #[test]

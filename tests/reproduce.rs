@@ -122,7 +122,7 @@ fn check_schema(r: &Value) {
         num(model, key);
     }
     assert_eq!(model["weighting"], "none");
-    assert_eq!(model["consistent"], false);
+    assert_eq!(model["consistent"], true);
     assert_eq!(model["design"]["criterion"], "d-optimal");
     num(&model["design"], "stacked_cond");
     num(&model["design"], "wall_s");

@@ -148,12 +148,12 @@ pub struct IdentifyArgs {
     /// variance growing with the predicted active power (both iterated from the residuals).
     #[arg(long, value_enum, default_value = "none")]
     weighting: WeightingArg,
-    /// Make the model physically consistent inside identification (--method auto, total or
-    /// pmsm): positive-definite pseudo-inertias, non-negative friction, rotor inertia and
-    /// losses, nearest to the estimate in its covariance (the input URDF decides what the data
-    /// cannot see).
+    /// Keep the least-squares estimate as it is. By default (--method auto, total and pmsm)
+    /// the model is made physically consistent inside identification: positive-definite
+    /// pseudo-inertias, non-negative friction, rotor inertia and losses, nearest to the
+    /// estimate in its covariance (the input URDF decides what the data cannot see).
     #[arg(long)]
-    consistent: bool,
+    unconstrained: bool,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -237,9 +237,9 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    if !fitted && (args.consistent || args.weighting != WeightingArg::None) {
+    if !fitted && (args.unconstrained || args.weighting != WeightingArg::None) {
         bail!(
-            "--weighting and --consistent apply to --method auto, total and pmsm, not {:?}",
+            "--weighting and --unconstrained apply to --method auto, total and pmsm, not {:?}",
             args.method
         );
     }
@@ -265,7 +265,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             min_speed,
             candidates,
             weighting: args.weighting.into(),
-            consistent: args.consistent,
+            consistent: !args.unconstrained,
             ..FitOptions::default()
         };
         let sel = identify_logs(&robot, &logs, &[route], &opts)?;

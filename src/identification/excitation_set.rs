@@ -49,6 +49,16 @@ pub enum SetCriterion {
     DOptimal,
 }
 
+impl SetCriterion {
+    /// What the criterion optimises, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SetCriterion::Cond => "condition number",
+            SetCriterion::DOptimal => "D-optimality",
+        }
+    }
+}
+
 /// One excitation of the set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Member {

@@ -455,7 +455,7 @@ fn fit_weighted(
             }
             (est, cov)
         }
-        Estimator::Pmsm => levenberg_marquardt(template, s, rows, weights, &mut z)?,
+        Estimator::Pmsm => levenberg_marquardt(template, s, rows, weights, None, &mut z)?,
     };
     let mut model = template.clone();
     model.efficiency_scaled = false;
@@ -559,12 +559,13 @@ fn covariance(a: &DMatrix<f64>, rss: f64, est: &Estimate) -> Result<DMatrix<f64>
 }
 
 /// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
-/// linear solution), in place.
+/// linear solution), in place; only the parameters marked in `free` move (all when `None`).
 fn levenberg_marquardt(
     template: &PowerModel,
     s: &Samples,
     rows: &[usize],
     weights: &[f64],
+    free: Option<&[bool]>,
     z: &mut DVector<f64>,
 ) -> Result<(Estimate, DMatrix<f64>)> {
     let np = s.params();
@@ -591,8 +592,17 @@ fn levenberg_marquardt(
     let mut cost = r.norm_squared();
     let mut lambda = 1e-3;
     for _ in 0..MAX_ITERATIONS {
-        let jtj = jac.transpose() * &jac;
-        let g = jac.transpose() * &r;
+        let mut jtj = jac.transpose() * &jac;
+        let mut g = jac.transpose() * &r;
+        if let Some(free) = free {
+            // Fixed parameters: no coupling, no gradient, so their step is zero.
+            for (k, _) in free.iter().enumerate().filter(|(_, f)| !**f) {
+                jtj.row_mut(k).fill(0.0);
+                jtj.column_mut(k).fill(0.0);
+                jtj[(k, k)] = 1.0;
+                g[k] = 0.0;
+            }
+        }
         let mut improved = false;
         for _ in 0..20 {
             let mut a = jtj.clone();
@@ -838,19 +848,28 @@ pub struct FitOptions {
     pub weighting: Weighting,
     /// Make the chosen model physically consistent
     /// ([`crate::identification::consistent::constrain`]; the URDF decides what the data
-    /// cannot see).
+    /// cannot see), then refit its loss terms (copper, standby) on the data with those base
+    /// parameters held. The intervals keep the unconstrained covariance and structure error.
     pub consistent: bool,
 }
 
 impl Default for FitOptions {
-    /// 0.05 rad/s, 5 folds, `total` and `pmsm`.
+    /// 0.05 rad/s, 5 folds, `total` and `pmsm`, ordinary least squares, the model made
+    /// physically consistent (loss terms refitted). Measured on the IRB 1200 identification
+    /// set over four noise seeds (30 held-out motions each; mean over the seeds of the median
+    /// / worst energy error): with the realistic truth the consistent model gives 0.53 / 2.32 %
+    /// instead of 0.63 / 2.49 % from the log and 0.28 / 0.68 % instead of 0.31 / 0.82 % from
+    /// the plan; with the exact truth it is neutral (log 0.18 / 1.15 % instead of
+    /// 0.19 / 1.21 %, plan 0.15 / 0.63 % instead of 0.14 / 0.60 %). On the UR5 RTDE log test
+    /// (`tests/logs.rs`) the worst held-out move is 3.2 % instead of 2.7 %. Weighting changed
+    /// little on the twin (its meter noise, 1 W, is the same at every power level).
     fn default() -> Self {
         FitOptions {
             min_speed: 0.05,
             folds: 5,
             candidates: vec![Estimator::Total, Estimator::Pmsm],
             weighting: Weighting::None,
-            consistent: false,
+            consistent: true,
         }
     }
 }
@@ -909,7 +928,7 @@ pub fn identify_logs(
     let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
     if opts.consistent {
         let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));
-        let estimate = selection.fit.free_estimate();
+        let estimate = regularised(selection.fit.free_estimate());
         let (model, consistent) = crate::identification::consistent::constrain(
             robot,
             &selection.fit.model,
@@ -920,13 +939,101 @@ pub fn identify_logs(
                 ..Default::default()
             },
         )?;
-        selection.fit.model = model;
+        selection.fit.model =
+            refit_losses(&template, &samples, model, selection.chosen, opts.weighting)?;
         selection.consistent = Some(consistent);
     }
     Ok(selection)
+}
+
+/// The estimate with its covariance made positive definite for the consistent projection:
+/// eigenvalues below `1e-12` of the largest (values the data fix exactly, e.g. a copper
+/// coefficient on its bound) raised to it.
+fn regularised(mut e: Estimate) -> Estimate {
+    let eig = e.covariance.clone().symmetric_eigen();
+    let floor = 1e-12 * eig.eigenvalues.max().max(0.0);
+    let values = eig.eigenvalues.map(|v| v.max(floor));
+    e.covariance =
+        &eig.eigenvectors * DMatrix::from_diagonal(&values) * eig.eigenvectors.transpose();
+    e
+}
+
+/// The loss terms refitted on the data with the base parameters of `model` (e.g. physically
+/// consistent ones) held: the copper coefficients (for [`Estimator::Pmsm`], kept >= 0) and the
+/// standby power, by Levenberg–Marquardt with the samples weighted by `weighting`. The
+/// projection moves the loss terms only along their correlation with the base parameters;
+/// the data decide them once those are fixed.
+fn refit_losses(
+    template: &PowerModel,
+    s: &Samples,
+    mut model: PowerModel,
+    estimator: Estimator,
+    weighting: Weighting,
+) -> Result<PowerModel> {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    let rows: Vec<usize> = (0..s.len()).filter(|&m| s.fit[m]).collect();
+    let mut z = DVector::zeros(np);
+    z.rows_mut(0, nb).copy_from_slice(&model.theta);
+    z.rows_mut(nb, n).copy_from_slice(&model.copper);
+    z[np - 1] = model.constant.iter().sum();
+    let free: Vec<bool> = (0..np)
+        .map(|k| k == np - 1 || (k >= nb && estimator == Estimator::Pmsm))
+        .collect();
+    let weights = match weighting {
+        Weighting::None => vec![1.0; rows.len()],
+        w => variance_weights(s, &rows, &z, w),
+    };
+    levenberg_marquardt(template, s, &rows, &weights, Some(&free), &mut z)?;
+    model.copper.copy_from_slice(z.rows(nb, n).as_slice());
+    model.constant.fill(0.0);
+    model.constant[0] = z[np - 1];
+    Ok(model)
 }
 
 /// Iterations of the consistent projection inside identification (measured on the
 /// identification set: the Mahalanobis distance of the projection changes by 0.4 % from 50 to
 /// 1000 iterations, which take 0.4 s and 9 s).
 const CONSISTENT_ITERATIONS: usize = 50;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::StandardNormal;
+
+    /// Pieces whose errors have variance `explained + sigma^2 + (rel A)^2`.
+    fn pieces(sigma: f64, rel: f64, count: usize, seed: u64) -> Vec<Piece> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..count)
+            .map(|_| {
+                let explained_w2: f64 = rng.random_range(0.01..0.1);
+                let active_w: f64 = rng.random_range(20.0..200.0);
+                let sd = (explained_w2 + sigma * sigma + (rel * active_w).powi(2)).sqrt();
+                let z: f64 = rng.sample(StandardNormal);
+                Piece {
+                    error_w: sd * z,
+                    explained_w2,
+                    active_w,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_structure_fit_recovers_a_known_error_model() {
+        // 400 pieces: a constant 0.3 W and 0.5 % of the active power beyond the explained.
+        let (sigma, rel) = structure_fit(&pieces(0.3, 0.005, 400, 1));
+        assert!((sigma - 0.3).abs() < 0.1, "sigma {sigma}");
+        assert!((rel - 0.005).abs() < 0.0012, "rel {rel}");
+        // Errors the covariance explains leave no structure error.
+        let (sigma, rel) = structure_fit(&pieces(0.0, 0.0, 400, 2));
+        assert!(sigma < 0.05 && rel < 5e-4, "sigma {sigma}, rel {rel}");
+        // A relative error alone is found as such.
+        let (sigma, rel) = structure_fit(&pieces(0.0, 0.01, 400, 3));
+        assert!(
+            sigma < 0.2 && (rel - 0.01).abs() < 0.002,
+            "sigma {sigma}, rel {rel}"
+        );
+    }
+}

@@ -40,10 +40,7 @@ fn heldout(w: &mut String, r: &Results) {
             .map(|l| format!("{l}"))
             .collect::<Vec<_>>()
             .join(", "),
-        match m.design.criterion {
-            crate::identification::excitation_set::SetCriterion::Cond => "condition number",
-            crate::identification::excitation_set::SetCriterion::DOptimal => "D-optimality",
-        },
+        m.design.criterion.describe(),
         m.design.rounds,
         m.design.stacked_cond,
         m.design.wall_s,

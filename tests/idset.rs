@@ -1,0 +1,351 @@
+//! The identification set as a whole: joint design of the excitations, the parameters a
+//! noise-free set determines, intervals calibrated on cross-validation, weighted and
+//! physically consistent fits.
+
+mod common;
+
+use powertwin::dataset::meta::Urdf;
+use powertwin::dynamics::{DriveTerms, ParamLayout};
+use powertwin::identification::data::Route;
+use powertwin::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
+use powertwin::identification::fit::{
+    Estimator, FitOptions, Samples, Weighting, fit, identify_logs,
+};
+use powertwin::identification::model::PowerModel;
+use powertwin::identification::states::States;
+use powertwin::measurement::PowerSignal;
+use powertwin::model::builtin;
+use powertwin::model::drive::Drive;
+use powertwin::model::payload::Payload;
+use powertwin::model::sampling::StateSampler;
+use powertwin::trajectory::limits::{IRB1200_ACCEL_LIMITS, check_limits};
+use powertwin::twin::physics::PhysicsSettings;
+use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::twin::{Fidelity, TwinConfig};
+use powertwin::validation::heldout::{self, HeldoutOptions};
+use powertwin::validation::idset::{self, IdSetOptions};
+use powertwin::validation::params;
+use powertwin::validation::rig::{Rig, Silent};
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+
+fn rig<'a>(
+    robot: &'a powertwin::Robot,
+    drive: &'a Drive,
+    fidelity: Fidelity,
+    noise: NoiseSettings,
+) -> Rig<'a> {
+    let realistic = fidelity == Fidelity::Realistic;
+    Rig {
+        robot,
+        urdf: Urdf::inline(builtin::IRB1200_URDF),
+        drive,
+        twin: TwinConfig {
+            physics: PhysicsSettings {
+                substeps: 3,
+                ..PhysicsSettings::default()
+            },
+            fidelity,
+            nominal_error: if realistic { 0.1 } else { 0.0 },
+            ..TwinConfig::default()
+        },
+        sensor: SensorSettings {
+            noise,
+            power_signal: if realistic {
+                PowerSignal::Bus
+            } else {
+                PowerSignal::Total
+            },
+            ..SensorSettings::default()
+        },
+    }
+}
+
+fn drive(robot: &powertwin::Robot) -> Drive {
+    Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", robot).unwrap()
+}
+
+/// Two excitations (nothing and 7 kg on the flange) of the IRB 1200.
+fn two_members(criterion: SetCriterion) -> SetOptions {
+    let centres = IdSetOptions::irb1200(true).centres;
+    SetOptions {
+        members: vec![
+            Member {
+                centre: centres[0].clone(),
+                base_freq_hz: 0.1,
+                periods: 2,
+                payload: None,
+            },
+            Member {
+                centre: centres[3].clone(),
+                base_freq_hz: 0.2,
+                periods: 4,
+                payload: Some(Payload::cube("load 7 kg", 7.0, [0.0, 0.0, 0.05].into()).unwrap()),
+            },
+        ],
+        harmonics: 5,
+        sample_rate_hz: 10.0,
+        min_speed: 0.05,
+        criterion,
+        accel_limits: IRB1200_ACCEL_LIMITS.to_vec(),
+        position_margin: 0.05,
+        limit_fraction: 0.9,
+        floor_z: 0.05,
+        base_radius: 0.15,
+        rounds: 2,
+        max_evals: 150,
+        seed: 3,
+    }
+}
+
+#[test]
+fn a_joint_design_conditions_the_stacked_regressor_within_the_limits() {
+    let robot = common::irb1200();
+    for criterion in [SetCriterion::DOptimal, SetCriterion::Cond] {
+        let opts = two_members(criterion);
+        let d = design_set(&robot, &opts).unwrap();
+        eprintln!(
+            "{criterion:?}: cond {:.1} -> {:.1}, by round {:?}, members {:?}",
+            d.cond_initial, d.cond_final, d.criterion_by_round, d.member_conds
+        );
+        assert_eq!(d.trajectories.len(), 2);
+        // Measured: 1.2e5 at the start guesses, 246 (D-optimal) and 174 (cond) designed.
+        assert!(d.cond_initial > 1e5, "{}", d.cond_initial);
+        assert!(d.cond_final < 300.0, "{}", d.cond_final);
+        // Later rounds only accept improvements of the whole set's criterion.
+        assert!(d.criterion_by_round[1] <= d.criterion_by_round[0]);
+        for t in &d.trajectories {
+            check_limits(&robot, t, 1e-3, Some(&IRB1200_ACCEL_LIMITS)).unwrap();
+        }
+        // The same seed gives the same set.
+        let again = design_set(&robot, &opts).unwrap();
+        for (a, b) in d.trajectories.iter().zip(&again.trajectories) {
+            assert_eq!(a.to_vector(), b.to_vector());
+        }
+    }
+    // Clear errors.
+    let mut o = two_members(SetCriterion::DOptimal);
+    o.members.clear();
+    assert!(design_set(&robot, &o).is_err());
+    let mut o = two_members(SetCriterion::DOptimal);
+    o.members[1].centre[1] = 3.0;
+    let err = design_set(&robot, &o).unwrap_err().to_string();
+    assert!(err.contains("excitation 2"), "{err}");
+    let mut o = two_members(SetCriterion::DOptimal);
+    o.rounds = 0;
+    assert!(design_set(&robot, &o).is_err());
+    let mut o = two_members(SetCriterion::DOptimal);
+    o.members[0].base_freq_hz = 0.0;
+    assert!(design_set(&robot, &o).is_err());
+}
+
+#[test]
+fn a_noise_free_identification_set_determines_the_drive_and_arm_parameters() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::NONE);
+    let set = idset::run(&rig, &IdSetOptions::irb1200(true), &Silent).unwrap();
+    let model = &set.selection.fit.model;
+    let rows = params::table(&robot, &drive, model, &[&set.selection.fit.estimate]).unwrap();
+    let well: Vec<_> = rows
+        .iter()
+        .filter(|r| r.rel_std_pct.is_some_and(|s| s < 1.0))
+        .collect();
+    let worst = well
+        .iter()
+        .filter_map(|r| r.error_pct)
+        .fold(0.0_f64, |m, e| m.max(e.abs()));
+    let within = well
+        .iter()
+        .filter(|r| r.error_pct.is_some_and(|e| e.abs() < 2.0))
+        .count();
+    eprintln!(
+        "well determined {} of {}, {within} within 2 %, worst {worst:.3} %, stacked cond {:.1}, P0 {:.3}, copper {:?}",
+        well.len(),
+        rows.len(),
+        set.set_cond,
+        model.constant[0],
+        model.copper
+    );
+    // Measured on this quick set: 24 of 52 with relative std < 1 %, all within 2 % of the
+    // truth, the worst 1.83 % off; standby 18.45 W (true 18.5 W).
+    assert!(well.len() >= 22, "{}", well.len());
+    assert!(within >= 22, "{within}");
+    assert!(worst < 2.5, "{worst}");
+    assert!(
+        (model.constant[0] - 18.5).abs() < 0.1,
+        "{}",
+        model.constant[0]
+    );
+    for (c, d) in model.copper.iter().zip(drive.joints()).take(3) {
+        assert!(
+            (c / d.copper_loss - 1.0).abs() < 0.05,
+            "{c} vs {}",
+            d.copper_loss
+        );
+    }
+}
+
+/// A model identified from a set of `fidelity` with default noise, judged on 12 held-out
+/// motions: `(plan coverage %, log coverage %, mean half-width of the plan intervals in % of
+/// the true energy, structure sigma W, structure rel)`.
+fn coverage(fidelity: Fidelity) -> (f64, f64, f64, f64, f64) {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let rig = rig(&robot, &drive, fidelity, NoiseSettings::default());
+    let set = idset::run(&rig, &IdSetOptions::irb1200(true), &Silent).unwrap();
+    let model = &set.selection.fit.model;
+    let (h, _) = heldout::run(&rig, model, &HeldoutOptions::irb1200(12), &Silent).unwrap();
+    let width = h
+        .motions
+        .iter()
+        .map(|m| 100.0 * m.from_plan.interval_j / m.true_j)
+        .sum::<f64>()
+        / h.motions.len() as f64;
+    (
+        h.from_plan.coverage_pct,
+        h.from_log.coverage_pct,
+        width,
+        model.structure_sigma,
+        model.structure_rel,
+    )
+}
+
+#[test]
+fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
+    let exact = coverage(Fidelity::Exact);
+    let realistic = coverage(Fidelity::Realistic);
+    eprintln!("exact {exact:?}, realistic {realistic:?}");
+    // Measured (12 motions each, 95 % intervals): exact truth, plan 100 % and log 100 %; the
+    // cross-validation pieces show no structure error beyond 0.2 % of the active power.
+    // Realistic truth: plan 92 %, log 75 %; structure 0.31 W.
+    assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
+    assert!(exact.4 < 0.005 && exact.3 < 0.05, "{exact:?}");
+    assert!(realistic.0 >= 80.0 && realistic.1 >= 70.0, "{realistic:?}");
+    assert!(realistic.3 > 0.1 || realistic.4 > 0.001, "{realistic:?}");
+    // ... with intervals that are not vacuous: mean half-widths 1.05 % and 1.42 % of the
+    // energy.
+    assert!(
+        exact.2 < 1.2 && realistic.2 < 1.7,
+        "{exact:?} {realistic:?}"
+    );
+}
+
+/// Random states of the IRB 1200 and their power under the true drives with noise whose
+/// standard deviation is `0.2 W + 2 %` of the active power: `(states, power)`.
+fn heteroscedastic(robot: &powertwin::Robot, model: &PowerModel) -> (States, Vec<f64>) {
+    let n = robot.dof();
+    let mut sampler = StateSampler::new(robot, 1.5, 4.0, 11).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+    let count = 1500;
+    let mut s = States {
+        t: (0..count).map(|k| k as f64 * 0.1).collect(),
+        q: vec![Vec::new(); n],
+        dq: vec![Vec::new(); n],
+        ddq: vec![Vec::new(); n],
+    };
+    let mut ws = powertwin::dynamics::Workspace::new(robot);
+    let mut w = nalgebra::DMatrix::zeros(n, model.layout.len());
+    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let standby: f64 = model.constant.iter().sum();
+    let mut y = Vec::with_capacity(count);
+    for _ in 0..count {
+        sampler.state(&mut q, &mut dq, &mut ddq);
+        for i in 0..n {
+            s.q[i].push(q[i]);
+            s.dq[i].push(dq[i]);
+            s.ddq[i].push(ddq[i]);
+        }
+        let p = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
+        let z: f64 = StandardNormal.sample(&mut rng);
+        y.push(p + (0.2 + 0.02 * (p - standby).abs()) * z);
+    }
+    (s, y)
+}
+
+#[test]
+fn power_level_weighting_fits_heteroscedastic_power_better() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let layout = ParamLayout::new(&robot, true, true);
+    let mut truth = PowerModel::new(&robot, layout, false).unwrap();
+    let base = truth.base_params(&robot).unwrap();
+    truth.theta = base
+        .base_values(&layout.theta(&robot, &DriveTerms::from(&drive)))
+        .unwrap();
+    truth.copper = drive.joints().iter().map(|j| j.copper_loss).collect();
+    truth.constant[0] = drive.joints().iter().map(|j| j.standby_power).sum();
+    let (states, y) = heteroscedastic(&robot, &truth);
+    let samples = Samples::from_states(&robot, &truth, &states, &y).unwrap();
+    // Error of the fitted parameters in units of the truth, over the ten largest.
+    let mut largest: Vec<usize> = (0..truth.theta.len()).collect();
+    largest.sort_by(|a, b| truth.theta[*b].abs().total_cmp(&truth.theta[*a].abs()));
+    let error = |w: Weighting| -> f64 {
+        let f = fit(&truth, &samples, Estimator::Pmsm, w, &|_| true).unwrap();
+        largest[..10]
+            .iter()
+            .map(|&k| ((f.model.theta[k] - truth.theta[k]) / truth.theta[k]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (ols, wls) = (error(Weighting::None), error(Weighting::PowerLevel));
+    eprintln!("relative parameter error: OLS {ols:.5}, power-level WLS {wls:.5}");
+    // Measured: 0.428 and 0.097.
+    assert!(wls < 0.5 * ols, "OLS {ols}, WLS {wls}");
+}
+
+#[test]
+fn per_log_weighting_and_the_consistent_model() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::default());
+    let opts = IdSetOptions::irb1200(true);
+    let set = idset::run(&rig, &opts, &Silent).unwrap();
+    let routes: Vec<Route> = opts
+        .base_freq_hz
+        .iter()
+        .map(|&f| Route::Fourier {
+            base_freq_hz: f,
+            harmonics: 5,
+        })
+        .collect();
+    // A meter ten times noisier on the second run.
+    let mut logs = set.logs.clone();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    for p in &mut logs[1].power_w {
+        let z: f64 = StandardNormal.sample(&mut rng);
+        *p += 10.0 * z;
+    }
+    let truth = params::table(&robot, &drive, &set.selection.fit.model, &[]).unwrap();
+    let error = |fo: &FitOptions| -> f64 {
+        let sel = identify_logs(&robot, &logs, &routes, fo).unwrap();
+        let rows = params::table(&robot, &drive, &sel.fit.model, &[]).unwrap();
+        rows.iter()
+            .zip(&truth)
+            .filter(|(_, t)| t.truth.abs() > 0.1)
+            .map(|(r, _)| (r.error_pct.unwrap() / 100.0).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let ols = error(&FitOptions::default());
+    let wls = error(&FitOptions {
+        weighting: Weighting::PerLog,
+        ..FitOptions::default()
+    });
+    eprintln!("relative parameter error: OLS {ols:.5}, per-log WLS {wls:.5}");
+    // Measured: 1.418 and 0.456.
+    assert!(wls < 0.6 * ols, "OLS {ols}, WLS {wls}");
+    // The consistent model: positive-definite mass matrix, no negative drive term, close to
+    // the estimate in its own standard deviations.
+    let sel = identify_logs(&robot, &set.logs, &routes, &FitOptions::default()).unwrap();
+    let c = sel.consistent.as_ref().unwrap();
+    let check = params::consistency(&robot, &sel.fit.model, 1.0, 200, 1).unwrap();
+    eprintln!(
+        "consistent: Mahalanobis {:.3}, largest change {:.3} sigma, min eig {:.4}",
+        c.mahalanobis, c.max_change_sigma, check.min_eigenvalue
+    );
+    // Measured: Mahalanobis 2.82, largest change 1.33 standard deviations.
+    assert!(check.consistent);
+    assert!(c.max_change_sigma < 3.0, "{}", c.max_change_sigma);
+    assert!(sel.fit.model.copper.iter().all(|v| *v >= 0.0));
+}
