@@ -81,10 +81,11 @@ pub struct Samples {
 impl Samples {
     /// Build the samples of `logs` for `model`'s base parameters. Samples at which an
     /// excited joint moves slower than `min_speed` (rad/s) are kept for cross-validated
-    /// energies but not fitted on. Each log is cut into `folds` contiguous time blocks (the
-    /// energy pieces); with three logs or more, each fold holds out a whole log (a motion,
-    /// centre and payload the fit did not see, as a prediction meets), else one block of
-    /// every log.
+    /// energies but not fitted on, unless every joint's velocity and acceleration is exactly
+    /// zero (a rest held still by the route). Each log is cut into `folds` contiguous time
+    /// blocks (the energy pieces); with three logs or more, each fold holds out a whole log (a
+    /// motion, centre and payload the fit did not see, as a prediction meets), else one block
+    /// of every log.
     ///
     /// Errors: logs of different power signals, a model of another robot, a payload that is
     /// not physical.
@@ -160,6 +161,13 @@ impl Samples {
             let mut fit = vec![false; len];
             for m in moving {
                 fit[m] = true;
+            }
+            // A robot held exactly still (the spline route's rests) has no Coulomb sign to
+            // doubt: its power is the standby plus the copper loss of holding the pose, which
+            // pins the constant.
+            for (m, f) in fit.iter_mut().enumerate() {
+                *f |= p.states.dq.iter().all(|v| v[m] == 0.0)
+                    && p.states.ddq.iter().all(|a| a[m] == 0.0);
             }
             for (m, &fit_m) in fit.iter().enumerate() {
                 p.states.at(m, &mut q, &mut dq, &mut ddq);
@@ -573,8 +581,8 @@ pub fn select(template: &PowerModel, s: &Samples, candidates: &[Estimator]) -> R
 #[derive(Debug, Clone, PartialEq)]
 pub struct FitOptions {
     /// Samples at which an excited joint moves slower than this (rad/s) are not fitted on
-    /// (Coulomb sign and stiction around velocity reversals); they still count in the
-    /// cross-validated energies.
+    /// (Coulomb sign and stiction around velocity reversals), except where the robot is held
+    /// exactly still; they still count in the cross-validated energies.
     pub min_speed: f64,
     /// Contiguous time blocks each log is cut into: the energy pieces of cross-validation,
     /// and its folds when there are fewer than three logs.
