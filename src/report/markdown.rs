@@ -26,8 +26,9 @@ fn heldout(w: &mut String, r: &Results) {
          of {} base parameters with relative std < 1 %). It then predicts {} motions drawn \
          from seed {} that no identification saw (random Fourier motions, point-to-point \
          moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the 10 Hz log of \
-         each (positions smoothed and differentiated) and from the commanded trajectory. The \
-         baseline is what a user has without identification: the URDF's rigid bodies and \
+         each (rests held still, the least-jerk spline through the positions between them) \
+         and from the commanded trajectory. The baseline is what a user has without \
+         identification: the URDF's rigid bodies and \
          friction with the data-sheet efficiency. The twin's truth only scores.\n",
         m.name,
         m.excitation_conds.len(),
