@@ -616,4 +616,36 @@ mod spline_route {
         let s = noise_levels(&fast, &none(&fast))[0];
         assert!((s / 1e-5 - 1.0).abs() < 0.2, "{s}");
     }
+    #[test]
+    fn an_averaging_logger_gets_the_states_of_its_windows() {
+        use powertwin::identification::data::{Route, prepare};
+        use powertwin::measurement::{Log, PowerSignal};
+        // q = 0.5 sin(w t) at 10 Hz.
+        let w = std::f64::consts::TAU * 0.4;
+        let t: Vec<f64> = (0..60).map(|k| k as f64 * 0.1).collect();
+        let log = |averaged: bool| Log {
+            source: "sine".into(),
+            robot: None,
+            q_rad: vec![t.iter().map(|s| 0.5 * (w * s).sin()).collect()],
+            t_s: t.clone(),
+            dq_rad_s: None,
+            power_w: vec![0.0; t.len()],
+            signal: PowerSignal::Total,
+            motor_power_w: None,
+            power_averaged: averaged,
+            payloads: Vec::new(),
+        };
+        for averaged in [false, true] {
+            let p = prepare(&log(averaged), Route::Spline).unwrap();
+            assert_eq!(p.states.t, t);
+            // An averaged sample's power belongs to the middle of its period (the first
+            // sample's period precedes the log: its own time).
+            for (k, &tk) in t.iter().enumerate().skip(1) {
+                let at = if averaged { tk - 0.05 } else { tk };
+                let (q, dq) = (0.5 * (w * at).sin(), 0.5 * w * (w * at).cos());
+                assert!((p.states.q[0][k] - q).abs() < 1e-4, "{averaged} {k}");
+                assert!((p.states.dq[0][k] - dq).abs() < 2e-3 * w, "{averaged} {k}");
+            }
+        }
+    }
 }
