@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
-use powertwin::identification::data::{Prepared, Route, prepare};
+use powertwin::identification::data::{Prepared, Route, power_times, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
 use powertwin::identification::fit::{Estimator, FitOptions, identify_logs};
 use powertwin::identification::linear::{self, Observation};
@@ -423,7 +423,10 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
         let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
             .iter()
             .sum();
-        let t: Vec<f64> = p.states.t.iter().map(|t| t - p.motion_t0_s).collect();
+        let t: Vec<f64> = power_times(&p.states.t, p.power_averaged)
+            .iter()
+            .map(|t| t - p.motion_t0_s)
+            .collect();
         let power = model.power_with_payloads(
             &robot,
             p.motion.as_ref(),

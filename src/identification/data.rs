@@ -45,8 +45,8 @@ pub enum Route {
 /// A dataset ready for the estimators.
 pub struct Prepared {
     /// The states the logged power belongs to, one per sample, stamped with the sample
-    /// times: the states at the sample times, or, for a logger that averages power over each
-    /// sample period, at the middle of each period.
+    /// times: the states at the [`power_times`] (the sample times, or for a logger that
+    /// averages power the middle of each sample period).
     pub states: States,
     /// A continuous motion through them (for energy integrals and predictions); its time 0
     /// is log time `motion_t0_s`.
@@ -113,25 +113,20 @@ impl Prepared {
     }
 }
 
-/// For a logger that averages power over each sample period: the states at the middle of
-/// each sample's window `[t_k-1, t_k]` along `motion` (whose time 0 is log time
-/// `motion_t0_s`), where a smooth power takes its window mean to second order (the first
-/// sample, whose window precedes the log, keeps its own state). Time stamps stay the
-/// samples'. Taking the states at the sample times instead lags the power by half a period:
-/// identified from an averaging 10 Hz DC-bus log of point-to-point moves, standby 42.7 W for
-/// 37 W and held-out moves up to 18 % off; with the window midpoints 37.1 W and 1.0 %.
-fn window_states(at_samples: States, motion: &dyn Trajectory, motion_t0_s: f64) -> States {
-    let t = &at_samples.t;
-    let mid: Vec<f64> = (0..t.len())
+/// Times (s, log time) the logged power belongs to, one per sample of `t` (s): the sample
+/// times, or, when the logger averages power over each sample period, the middle of each
+/// period `[t_k-1, t_k]`, where a smooth power takes its period's mean to second order (the
+/// first sample, whose period precedes the log, keeps its own time). Taking the sample times
+/// for an averaging logger lags the power by half a period: identified from an averaging
+/// 10 Hz DC-bus log of point-to-point moves, standby 42.7 W for 37 W and held-out moves up to
+/// 18 % off; with the middles 37.1 W and 1.0 %.
+pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
+    (0..t.len())
         .map(|k| match k {
-            0 => t[0] - motion_t0_s,
-            _ => 0.5 * (t[k - 1] + t[k]) - motion_t0_s,
+            k if k > 0 && power_averaged => 0.5 * (t[k - 1] + t[k]),
+            _ => t[k],
         })
-        .collect();
-    States {
-        t: at_samples.t.clone(),
-        ..from_fourier(motion, &mid)
-    }
+        .collect()
 }
 
 /// Prepare the log along `route`.
@@ -197,7 +192,15 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
         Route::Spline | Route::Smoothing { .. } => t[0],
     };
     let states = if log.power_averaged {
-        window_states(states, motion.as_ref(), motion_t0_s)
+        // The states of the power's times along the motion, stamped with the sample times.
+        let at: Vec<f64> = power_times(t, true)
+            .iter()
+            .map(|s| s - motion_t0_s)
+            .collect();
+        States {
+            t: t.clone(),
+            ..from_fourier(motion.as_ref(), &at)
+        }
     } else {
         states
     };
