@@ -213,8 +213,8 @@ fn chain(arm: &Arm, bounds: &Bounds) {
         .max_by(|a, b| a.cond_final.total_cmp(&b.cond_final))
         .unwrap();
 
-    // Predict held-out motions: random Fourier motions from other seeds, differentiated by
-    // smoothing as for any logged motion.
+    // Predict held-out motions: random Fourier motions from other seeds, differentiated
+    // along the spline route as for any logged motion.
     let heldout_opts = RandomFourierOptions {
         accel_limits: accel,
         limit_fraction: 0.6,
@@ -225,14 +225,7 @@ fn chain(arm: &Arm, bounds: &Bounds) {
     for seed in HELDOUT_SEEDS {
         let traj = random_fourier(&robot, &mut common::rng(seed), &heldout_opts).unwrap();
         let data = run(&rig, &traj, 100 + seed);
-        let p = prepare(
-            &data.log("held out").unwrap(),
-            Route::Smoothing {
-                window: 9,
-                degree: 4,
-            },
-        )
-        .unwrap();
+        let p = prepare(&data.log("held out").unwrap(), Route::Spline).unwrap();
         let predicted = model.energy(&robot, p.motion.as_ref(), 1e-3).unwrap();
         let simulated = data.meta.summary.energy_total_j;
         // The share above the true standby power (scored with the truth, never fitted on it).

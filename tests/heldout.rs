@@ -89,8 +89,8 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
     let (h, datasets) = heldout::run(&rig, model, &opts, &Silent).unwrap();
     assert_eq!(h.motions.len(), 9);
     assert_eq!(datasets.len(), 9);
-    // Measured on this set: log 0.32 % median / 0.95 % worst, plan 0.35 / 0.89 %, power
-    // RMSE worst 3.3 W (meter noise 1 W), coverage 89 %.
+    // Measured on this set: log 0.27 % median / 1.05 % worst, plan 0.33 / 0.84 %, power
+    // RMSE worst 2.9 W (meter noise 1 W; 3.3 W with the local quartic route), coverage 89 %.
     assert!(
         h.from_log.energy_error_pct.median <= 0.6,
         "{:?}",
@@ -102,7 +102,7 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
         "{:?}",
         h.from_plan
     );
-    assert!(h.power_rmse_w.worst <= 4.5, "{:?}", h.power_rmse_w);
+    assert!(h.power_rmse_w.worst <= 3.5, "{:?}", h.power_rmse_w);
     // The baseline (URDF + data-sheet efficiency) is tens of per cent off.
     assert!(h.baseline.energy_error_pct.median >= 10.0);
     // Intervals cover most motions (95 % nominal; 9 motions).
@@ -262,6 +262,22 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
     let interval = recorded["interval_95_J"].as_f64().unwrap();
     assert!(interval > 0.0 && interval < 0.05 * e(&recorded));
     assert!((e(&wrong) - e(&recorded)).abs() > 0.005 * e(&recorded));
+    // The route before the spline stays an option: a local quartic through 5 samples.
+    let quartic = predict(&["--smoothing-window", "5"]);
+    assert_ne!(e(&quartic), e(&recorded));
+    let q_err = quartic["error_vs_simulated_pct"].as_f64().unwrap();
+    assert!(q_err.abs() <= 3.0, "{q_err} %");
+    let (code, _, err) = common::run(&[
+        "predict",
+        "--model",
+        model_path.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--smoothing-window",
+        "4",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("odd window"), "{err}");
     // A malformed timeline is a clear error naming the file.
     std::fs::write(&timeline, "[[event]]\nt_s = 1.0\npayload = \"anvil\"\n").unwrap();
     let (code, _, err) = common::run(&[

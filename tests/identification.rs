@@ -535,4 +535,117 @@ mod spline_route {
             .to_string();
         assert!(err.contains("q1[2] is inf"), "{err}");
     }
+    #[test]
+    fn jerk_gram_and_the_smoothing_spline() {
+        use powertwin::identification::spline::{jerk_gram, smooth};
+        // Rest to rest over h: the minimum-jerk profile's squared jerk is 720 dx^2 / h^5; a
+        // parabola has none.
+        let h = 0.3;
+        let g = jerk_gram(h);
+        let p = nalgebra::SVector::<f64, 6>::from_column_slice(&[0.0, 0.0, 0.0, 2.0, 0.0, 0.0]);
+        assert!(((p.transpose() * g * p)[(0, 0)] - 720.0 * 4.0 / h.powi(5)).abs() < 1e-6);
+        let p =
+            nalgebra::SVector::<f64, 6>::from_column_slice(&[0.0, 0.0, 2.0, h * h, 2.0 * h, 2.0]);
+        assert!((p.transpose() * g * p)[(0, 0)].abs() < 1e-6);
+        // A 100 Hz sine with 1e-5 rad of white noise: the smoothed positions leave residuals of
+        // the noise level, and their spline's accelerations are far closer to the truth than
+        // the interpolating spline's.
+        let mut rng = common::rng(4);
+        let w = std::f64::consts::TAU * 0.5;
+        let t: Vec<f64> = (0..400).map(|k| k as f64 * 0.01).collect();
+        let truth: Vec<f64> = t.iter().map(|s| (w * s).sin()).collect();
+        let y: Vec<f64> = truth
+            .iter()
+            .map(|v| v + 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64))
+            .collect();
+        let x = smooth(&t, &y, End::Free, End::Free, 1e-5).unwrap();
+        let rms = |a: &[f64], b: &[f64]| {
+            (a.iter().zip(b).map(|(p, q)| (p - q).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
+        };
+        assert!((rms(&x, &y) - 1e-5).abs() < 1e-8, "{}", rms(&x, &y));
+        assert!(rms(&x, &truth) < 0.7e-5, "{}", rms(&x, &truth));
+        let acc_err = |x: &[f64]| {
+            let (_, a) = quintic(&t, x, End::Free, End::Free).unwrap();
+            let inner = 20..t.len() - 20;
+            let want: Vec<f64> = t[inner.clone()]
+                .iter()
+                .map(|s| -w * w * (w * s).sin())
+                .collect();
+            rms(&a[inner], &want)
+        };
+        let (smoothed, raw) = (acc_err(&x), acc_err(&y));
+        eprintln!("acceleration error RMS: smoothed {smoothed:.4}, interpolated {raw:.4} rad/s^2");
+        assert!(smoothed < 0.1 * raw, "{smoothed} vs {raw}");
+        // No noise, no smoothing; rest ends keep their samples; bad input is refused.
+        assert_eq!(smooth(&t, &y, End::Free, End::Free, 0.0).unwrap(), y);
+        let x = smooth(&t, &y, End::Rest, End::Rest, 1e-5).unwrap();
+        assert_eq!((x[0], x[399]), (y[0], y[399]));
+        let e = smooth(&t, &y, End::Free, End::Free, -1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("noise level -1"), "{e}");
+    }
+
+    #[test]
+    fn encoder_noise_from_the_rests_or_from_white_differences() {
+        use powertwin::identification::states::noise_levels;
+        // Rest-move-rest: the rests show the encoders alone (1e-5 rad, uniform noise).
+        for rate in [10.0, 100.0] {
+            let (t, q, _) = rest_move_rest(rate);
+            let s = noise_levels(&q, &rest_intervals(&t, &q));
+            assert!(
+                s.iter().all(|s| (s / 1e-5 - 1.0).abs() < 0.35),
+                "{rate} Hz: {s:?}"
+            );
+        }
+        // No rest: a 10 Hz log resolves a smooth motion far above the noise (interpolate);
+        // at 1 kHz the samples are white noise at high orders.
+        let wave = |rate: f64| -> Vec<Vec<f64>> {
+            let mut rng = common::rng(5);
+            let x = (0..(4.0 * rate) as usize)
+                .map(|k| {
+                    let s = k as f64 / rate;
+                    (1.3 * s).sin() + 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64)
+                })
+                .collect();
+            vec![x]
+        };
+        let none = |q: &[Vec<f64>]| vec![false; q[0].len() - 1];
+        assert_eq!(noise_levels(&wave(10.0), &none(&wave(10.0))), vec![0.0]);
+        let fast = wave(1000.0);
+        let s = noise_levels(&fast, &none(&fast))[0];
+        assert!((s / 1e-5 - 1.0).abs() < 0.2, "{s}");
+    }
+    #[test]
+    fn an_averaging_logger_gets_the_states_of_its_windows() {
+        use powertwin::identification::data::{Route, prepare};
+        use powertwin::measurement::{Log, PowerSignal};
+        // q = 0.5 sin(w t) at 10 Hz.
+        let w = std::f64::consts::TAU * 0.4;
+        let t: Vec<f64> = (0..60).map(|k| k as f64 * 0.1).collect();
+        let log = |averaged: bool| Log {
+            source: "sine".into(),
+            robot: None,
+            q_rad: vec![t.iter().map(|s| 0.5 * (w * s).sin()).collect()],
+            t_s: t.clone(),
+            dq_rad_s: None,
+            power_w: vec![0.0; t.len()],
+            signal: PowerSignal::Total,
+            motor_power_w: None,
+            power_averaged: averaged,
+            payloads: Vec::new(),
+        };
+        for averaged in [false, true] {
+            let p = prepare(&log(averaged), Route::Spline).unwrap();
+            assert_eq!(p.states.t, t);
+            // An averaged sample's power belongs to the middle of its period (the first
+            // sample's period precedes the log: its own time).
+            for (k, &tk) in t.iter().enumerate().skip(1) {
+                let at = if averaged { tk - 0.05 } else { tk };
+                let (q, dq) = (0.5 * (w * at).sin(), 0.5 * w * (w * at).cos());
+                assert!((p.states.q[0][k] - q).abs() < 1e-4, "{averaged} {k}");
+                assert!((p.states.dq[0][k] - dq).abs() < 2e-3 * w, "{averaged} {k}");
+            }
+        }
+    }
 }

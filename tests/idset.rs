@@ -6,6 +6,7 @@ mod common;
 
 use powertwin::dataset::meta::Urdf;
 use powertwin::dynamics::{DriveTerms, ParamLayout};
+use powertwin::identification::consistency::consistency;
 use powertwin::identification::data::Route;
 use powertwin::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
 use powertwin::identification::fit::{
@@ -24,8 +25,8 @@ use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
 use powertwin::twin::{Fidelity, TwinConfig};
 use powertwin::validation::heldout::{self, HeldoutOptions};
 use powertwin::validation::idset::{self, IdSetOptions};
-use powertwin::validation::params;
 use powertwin::validation::rig::{Rig, Silent};
+use powertwin::validation::score;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -146,7 +147,7 @@ fn a_noise_free_identification_set_determines_the_drive_and_arm_parameters() {
     let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::NONE);
     let set = idset::run(&rig, &IdSetOptions::irb1200(true), &Silent).unwrap();
     let model = &set.selection.fit.model;
-    let rows = params::table(&robot, &drive, model, &[&set.selection.fit.estimate]).unwrap();
+    let rows = score::table(&robot, &drive, model, &[&set.selection.fit.estimate]).unwrap();
     let well: Vec<_> = rows
         .iter()
         .filter(|r| r.rel_std_pct.is_some_and(|s| s < 1.0))
@@ -316,10 +317,10 @@ fn per_log_weighting_and_the_consistent_model() {
         let z: f64 = StandardNormal.sample(&mut rng);
         *p += 10.0 * z;
     }
-    let truth = params::table(&robot, &drive, &set.selection.fit.model, &[]).unwrap();
+    let truth = score::table(&robot, &drive, &set.selection.fit.model, &[]).unwrap();
     let error = |fo: &FitOptions| -> f64 {
         let sel = identify_logs(&robot, &logs, &routes, fo).unwrap();
-        let rows = params::table(&robot, &drive, &sel.fit.model, &[]).unwrap();
+        let rows = score::table(&robot, &drive, &sel.fit.model, &[]).unwrap();
         rows.iter()
             .zip(&truth)
             .filter(|(_, t)| t.truth.abs() > 0.1)
@@ -339,7 +340,7 @@ fn per_log_weighting_and_the_consistent_model() {
     // the estimate in its own standard deviations.
     let sel = identify_logs(&robot, &set.logs, &routes, &FitOptions::default()).unwrap();
     let c = sel.consistent.as_ref().unwrap();
-    let check = params::consistency(&robot, &sel.fit.model, 1.0, 200, 1).unwrap();
+    let check = consistency(&robot, &sel.fit.model, 1.0, 200, 1).unwrap();
     eprintln!(
         "consistent: Mahalanobis {:.3}, largest change {:.3} sigma, min eig {:.4}",
         c.mahalanobis, c.max_change_sigma, check.min_eigenvalue

@@ -82,10 +82,10 @@ impl Samples {
     /// Build the samples of `logs` for `model`'s base parameters. Samples at which an
     /// excited joint moves slower than `min_speed` (rad/s) are kept for cross-validated
     /// energies but not fitted on, unless every joint's velocity and acceleration is exactly
-    /// zero (a rest held still by the route). Each log is cut into `folds` contiguous time blocks (the
-    /// energy pieces); with three logs or more, each fold holds out a whole log (a motion,
-    /// centre and payload the fit did not see, as a prediction meets), else one block of
-    /// every log.
+    /// zero (a rest held still by the route). Each log is cut into `folds` contiguous time
+    /// blocks (the energy pieces); with three logs or more, each fold holds out a whole log (a
+    /// motion, centre and payload the fit did not see, as a prediction meets), else one block
+    /// of every log.
     ///
     /// Errors: logs of different power signals, a model of another robot, a payload that is
     /// not physical.

@@ -1,16 +1,26 @@
-//! The quintic interpolating spline through sampled positions: the C4 piecewise quintic that
-//! passes through every sample and, among all interpolants, has the least `∫ q'''(t)^2 dt`
-//! (the least squared jerk). Its knot velocities and accelerations define it completely: a
-//! quintic Hermite piece per interval ([`crate::trajectory::sampled::Sampled`] with positions,
-//! velocities and accelerations) reproduces it exactly.
+//! Least-jerk quintic splines through sampled positions.
+//!
+//! [`quintic`]: the interpolating spline, the C4 piecewise quintic that passes through every
+//! sample and, among all interpolants, has the least `∫ q'''(t)^2 dt` (squared jerk). Its
+//! knot velocities and accelerations define it completely: a quintic Hermite piece per
+//! interval ([`crate::trajectory::sampled::Sampled`] with positions, velocities and
+//! accelerations) reproduces it exactly. Interior knots join with continuous third and
+//! fourth derivatives, a block-tridiagonal system in the knot (velocity, acceleration) pairs
+//! solved in O(samples).
+//!
+//! [`smooth`]: the smoothing spline for noisy samples, the positions that minimise
+//! `sum (x_k - y_k)^2 + mu ∫ q'''^2 dt` with `mu` chosen so that the residual's RMS is the
+//! noise level (Morozov's discrepancy principle): interpolation when the noise is far below
+//! what the sampling resolves (10 Hz encoders), smoothing when differentiation would amplify
+//! it (100 Hz). A block-tridiagonal system in the knot (position, velocity, acceleration)
+//! triples, O(samples) per trial `mu`.
 //!
 //! Each end is either a [`End::Rest`] (velocity and acceleration zero, as where a robot stands
-//! still) or [`End::Free`] (third and fourth derivatives those of the quartic through the
-//! samples nearest the end, for a motion that runs on beyond the log). Interior knots join with continuous third and fourth derivatives,
-//! a block-tridiagonal system in the knot (velocity, acceleration) pairs that is solved in
-//! O(samples).
+//! still) or [`End::Free`] (for the interpolating spline: third and fourth derivatives those
+//! of the quartic through the samples nearest the end, for a motion that runs on beyond the
+//! log; for the smoothing spline: the natural end of the least-jerk fit).
 
-use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SMatrix, Vector2, Vector3};
 
 use crate::error::{Error, Result, ensure_finite};
 
@@ -207,3 +217,135 @@ fn end_derivatives(t: &[f64], x: &[f64], at: f64) -> Result<[f64; 2]> {
     };
     Ok([d3, d4])
 }
+
+/// `∫_0^h q'''(s)^2 ds` of the quintic Hermite piece of length `h` (s) as a quadratic form in
+/// its end values `[x0, v0, a0, x1, v1, a1]` (rad, rad/s, rad/s^2): the 6 x 6 Gram matrix.
+pub fn jerk_gram(h: f64) -> SMatrix<f64, 6, 6> {
+    type Row = nalgebra::RowSVector<f64, 6>;
+    // Residuals left after the Taylor part at 0 (the quintic Hermite coefficients'
+    // r0, r1, r2), as rows over the end values.
+    let r = SMatrix::<f64, 3, 6>::from_rows(&[
+        Row::from_row_slice(&[-1.0, -h, -0.5 * h * h, 1.0, 0.0, 0.0]),
+        Row::from_row_slice(&[0.0, -h, -h * h, 0.0, h, 0.0]),
+        Row::from_row_slice(&[0.0, 0.0, -h * h, 0.0, 0.0, h * h]),
+    ]);
+    // The jerk q''' = d0 + d1 s + d2 s^2 with d = (6 c3, 24 c4, 60 c5), from the residuals.
+    let (h3, h4, h5) = (h.powi(3), h.powi(4), h.powi(5));
+    let c = Matrix3::new(
+        60.0 / h3,
+        -24.0 / h3,
+        3.0 / h3,
+        -360.0 / h4,
+        168.0 / h4,
+        -24.0 / h4,
+        360.0 / h5,
+        -180.0 / h5,
+        30.0 / h5,
+    );
+    let l = c * r;
+    let m = Matrix3::from_fn(|i, j| h.powi((i + j + 1) as i32) / (i + j + 1) as f64);
+    l.transpose() * m * l
+}
+
+/// The least-jerk smoothing spline's positions (rad) at times `t` (s, strictly increasing, at
+/// least 2) for samples `y` (rad): minimises `sum (x_k - y_k)^2 + mu ∫ q'''^2 dt` over
+/// quintic splines with the residual's RMS (over the samples not held by a [`End::Rest`])
+/// brought to `sigma_rad`. A rest end keeps its sample exactly, with zero velocity and
+/// acceleration. `sigma_rad <= 0` returns the samples (interpolation).
+///
+/// Errors: as [`quintic`], and a negative or non-finite `sigma_rad`.
+pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Result<Vec<f64>> {
+    quintic(t, y, start, end)?; // the same checks of the input
+    if !(sigma_rad.is_finite() && sigma_rad >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "noise level {sigma_rad} rad must be finite and >= 0"
+        )));
+    }
+    let n = t.len();
+    let free = n - usize::from(start == End::Rest) - usize::from(end == End::Rest);
+    if sigma_rad == 0.0 || free == 0 {
+        return Ok(y.to_vec());
+    }
+    let grams: Vec<SMatrix<f64, 6, 6>> = t.windows(2).map(|w| jerk_gram(w[1] - w[0])).collect();
+    let fixed = |k: usize| (k == 0 && start == End::Rest) || (k == n - 1 && end == End::Rest);
+    let solve = |mu: f64| -> Result<Vec<f64>> {
+        let mut lower = vec![Matrix3::zeros(); n];
+        let mut diag = vec![Matrix3::zeros(); n];
+        let mut upper = vec![Matrix3::zeros(); n];
+        let mut rhs = vec![Vector3::zeros(); n];
+        for k in 0..n {
+            if fixed(k) {
+                diag[k] = Matrix3::identity();
+                rhs[k] = Vector3::new(y[k], 0.0, 0.0);
+                continue;
+            }
+            diag[k][(0, 0)] = 1.0;
+            rhs[k][0] = y[k];
+            if k > 0 {
+                let g = &grams[k - 1];
+                lower[k] = mu * g.fixed_view::<3, 3>(3, 0);
+                diag[k] += mu * g.fixed_view::<3, 3>(3, 3);
+            }
+            if k + 1 < n {
+                let g = &grams[k];
+                diag[k] += mu * g.fixed_view::<3, 3>(0, 0);
+                upper[k] = mu * g.fixed_view::<3, 3>(0, 3);
+            }
+        }
+        let singular =
+            || Error::InvalidInput("the smoothing spline's equations are singular".into());
+        for k in 1..n {
+            let w = lower[k] * diag[k - 1].try_inverse().ok_or_else(singular)?;
+            diag[k] -= w * upper[k - 1];
+            let carried = w * rhs[k - 1];
+            rhs[k] -= carried;
+        }
+        let mut x = vec![0.0; n];
+        let mut next = diag[n - 1].try_inverse().ok_or_else(singular)? * rhs[n - 1];
+        x[n - 1] = next[0];
+        for k in (0..n - 1).rev() {
+            next = diag[k].try_inverse().ok_or_else(singular)? * (rhs[k] - upper[k] * next);
+            x[k] = next[0];
+        }
+        Ok(x)
+    };
+    let rms = |x: &[f64]| {
+        let se: f64 = (0..n)
+            .filter(|&k| !fixed(k))
+            .map(|k| (x[k] - y[k]).powi(2))
+            .sum();
+        (se / free as f64).sqrt()
+    };
+    // The residual grows with mu: bisect log10(mu / h^5) (h the mean interval) for the RMS.
+    let h = (t[n - 1] - t[0]) / (n - 1) as f64;
+    let mu = |e: f64| h.powi(5) * 10f64.powf(e);
+    let (mut lo, mut hi) = (-MU_DECADES, MU_DECADES);
+    if rms(&solve(mu(lo))?) >= sigma_rad {
+        return Ok(y.to_vec());
+    }
+    if rms(&solve(mu(hi))?) <= sigma_rad {
+        return solve(mu(hi));
+    }
+    for _ in 0..MU_BISECTIONS {
+        let mid = 0.5 * (lo + hi);
+        if rms(&solve(mu(mid))?) > sigma_rad {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let x = solve(mu(lo))?;
+    if let Some(bad) = x.iter().find(|v| !v.is_finite()) {
+        return Err(Error::InvalidInput(format!(
+            "the smoothing spline overflowed ({bad})"
+        )));
+    }
+    Ok(x)
+}
+
+/// Range of the smoothing weight searched, decades either side of `h^5` (the weight at which
+/// one interval's jerk and one sample's residual count alike).
+const MU_DECADES: f64 = 12.0;
+
+/// Bisection steps of the smoothing weight (resolution 24 / 2^30 decades).
+const MU_BISECTIONS: usize = 30;

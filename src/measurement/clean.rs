@@ -22,7 +22,7 @@
 //!    replaced by the grid (counted, with the largest deviation). Differentiating positions
 //!    against jittered stamps would turn 3 ms of jitter into rad/s^2 of acceleration error.
 //!    Otherwise (a logger that really samples unevenly) the actual times are kept, and every
-//!    later step (the smoothing route, energy windows, the lag estimate) works with them.
+//!    later step (the spline route, energy windows, the lag estimate) works with them.
 
 use std::f64::consts::{PI, TAU};
 

@@ -29,10 +29,10 @@ fn heldout(w: &mut String, r: &Results) {
          cross-validation pieces ({:.3} W plus {:.2} % of the active power). It then predicts \
          {} motions drawn from seed {} that no identification saw (random Fourier motions, \
          point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
-         10 Hz log of each (positions smoothed and differentiated) and from the commanded \
-         trajectory. The baseline is what a user has without identification: the URDF's \
-         rigid bodies and friction with the data-sheet efficiency. The twin's truth only \
-         scores.\n",
+         10 Hz log of each (rests held still, the least-jerk spline through the positions \
+         between them) and from the commanded trajectory. The baseline is what a user has \
+         without identification: the URDF's rigid bodies and friction with the data-sheet \
+         efficiency. The twin's truth only scores.\n",
         m.name,
         m.excitation_conds.len(),
         m.loads_kg

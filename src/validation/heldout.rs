@@ -31,12 +31,10 @@ use crate::trajectory::random::{
 use crate::validation::rig::{Progress, Rig};
 use crate::validation::score::{self, MotionResult, RouteSummary, Spread};
 
-/// Route from a logged stream to states for prediction: a local quartic through 5 samples
-/// (an interpolating fit: encoder noise is far below what a 10 Hz differentiation amplifies).
-pub const LOG_ROUTE: Route = Route::Smoothing {
-    window: 5,
-    degree: 4,
-};
+/// Route from a logged stream to states for prediction: rests held still and the least-jerk
+/// quintic spline through the samples between them, smoothed for the log's own encoder noise
+/// ([`crate::identification::states::from_spline`]).
+pub const LOG_ROUTE: Route = Route::Spline;
 
 /// Settings of the benchmark.
 #[derive(Debug, Clone, PartialEq)]
