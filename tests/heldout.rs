@@ -108,6 +108,12 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
     // Intervals cover most motions (95 % nominal; 9 motions).
     assert!(h.from_plan.coverage_pct >= 66.0, "{:?}", h.from_plan);
     assert!(h.from_log.coverage_pct >= 66.0, "{:?}", h.from_log);
+    // Neither far too wide nor far too narrow: the median error is between 0.15 and 2
+    // interval standard deviations (0.67 when calibrated).
+    for s in [&h.from_plan, &h.from_log] {
+        let z = s.median_z.expect("intervals");
+        assert!((0.15..2.0).contains(&z), "median z {z}");
+    }
     for m in &h.motions {
         assert!(m.from_log.interval_j > 0.0 && m.from_log.interval_j < 0.05 * m.true_j);
     }

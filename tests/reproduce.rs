@@ -115,6 +115,10 @@ fn check_schema(r: &Value) {
         }
         num(&h[route], "coverage_pct");
     }
+    for route in ["from_log", "from_plan"] {
+        num(&h[route], "median_z");
+    }
+    assert!(h["baseline"]["median_z"].is_null());
     assert!(r["model"]["name"].as_str().unwrap().starts_with("cv:"));
     assert!(!r["model"]["cv"].as_array().unwrap().is_empty());
     let model = &r["model"];

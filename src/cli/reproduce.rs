@@ -242,11 +242,12 @@ fn summary(r: &Results, out: &Path) -> String {
     ] {
         outln!(
             o,
-            "  {name}: energy error median {:.3} %, worst {:.3} %; above standby worst {:.3} %; 95 % interval coverage {:.0} %",
+            "  {name}: energy error median {:.3} %, worst {:.3} %; above standby worst {:.3} %; 95 % interval coverage {:.0} %{}",
             s.energy_error_pct.median,
             s.energy_error_pct.worst,
             s.above_standby_error_pct.worst,
-            s.coverage_pct
+            s.coverage_pct,
+            s.median_z.map_or(String::new(), |z| format!(" (median |error| {z:.2} sigma; calibrated 0.67)"))
         );
     }
     outln!(

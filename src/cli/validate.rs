@@ -120,13 +120,14 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     ] {
         outln!(
             o,
-            "{name}: energy error % median {:.3} p95 {:.3} worst {:.3}; above standby worst {:.3} %; mean power worst {:.3} W; 95 % coverage {:.0} %",
+            "{name}: energy error % median {:.3} p95 {:.3} worst {:.3}; above standby worst {:.3} %; mean power worst {:.3} W; 95 % coverage {:.0} %{}",
             s.energy_error_pct.median,
             s.energy_error_pct.p95,
             s.energy_error_pct.worst,
             s.above_standby_error_pct.worst,
             s.mean_power_error_w.worst,
-            s.coverage_pct
+            s.coverage_pct,
+            s.median_z.map_or(String::new(), |z| format!(" (median |error| {z:.2} sigma; calibrated 0.67)"))
         );
     }
     outln!(

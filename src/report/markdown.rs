@@ -74,6 +74,7 @@ fn heldout(w: &mut String, r: &Results) {
             "above standby % worst",
             "mean power W worst",
             "95 % interval coverage %",
+            "median error / interval sigma (calibrated: 0.67)",
         ],
     );
     for (name, s) in [
@@ -83,13 +84,14 @@ fn heldout(w: &mut String, r: &Results) {
     ] {
         let _ = writeln!(
             w,
-            "| {name} | {:.3} / {:.3} / {:.3} | {:.3} | {:.3} | {:.0} |",
+            "| {name} | {:.3} / {:.3} / {:.3} | {:.3} | {:.3} | {:.0} | {} |",
             s.energy_error_pct.median,
             s.energy_error_pct.p95,
             s.energy_error_pct.worst,
             s.above_standby_error_pct.worst,
             s.mean_power_error_w.worst,
-            s.coverage_pct
+            s.coverage_pct,
+            s.median_z.map_or("–".to_string(), |z| format!("{z:.2}"))
         );
     }
     let _ = writeln!(
