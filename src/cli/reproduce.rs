@@ -247,7 +247,9 @@ fn summary(r: &Results, out: &Path) -> String {
             s.energy_error_pct.worst,
             s.above_standby_error_pct.worst,
             s.coverage_pct,
-            s.median_z.map_or(String::new(), |z| format!(" (median |error| {z:.2} sigma; calibrated 0.67)"))
+            s.median_z.map_or(String::new(), |z| format!(
+                " (median |error| {z:.2} sigma; calibrated 0.67)"
+            ))
         );
     }
     outln!(

@@ -127,7 +127,9 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
             s.above_standby_error_pct.worst,
             s.mean_power_error_w.worst,
             s.coverage_pct,
-            s.median_z.map_or(String::new(), |z| format!(" (median |error| {z:.2} sigma; calibrated 0.67)"))
+            s.median_z.map_or(String::new(), |z| format!(
+                " (median |error| {z:.2} sigma; calibrated 0.67)"
+            ))
         );
     }
     outln!(
