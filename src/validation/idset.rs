@@ -52,19 +52,29 @@ pub struct IdSetOptions {
 }
 
 impl IdSetOptions {
-    /// Four excitations of the IRB 1200 about centres spread over the workspace, with 0, 2,
-    /// 4.5 and 7 kg (the rated payload) at the flange; two 10 s stretches each (`quick`:
-    /// smaller designs; one stretch made the quick sweep's worst cell 2.6 % instead of 0.7 %).
+    /// Eight excitations of the IRB 1200 about centres spread over the workspace, with 0, 2,
+    /// 4.5, 7 (the rated payload), 1, 3, 5.5 and 6 kg at the flange; two 10 s stretches each.
+    /// `quick`: the first four, smaller designs (one stretch made the quick sweep's worst cell
+    /// 2.6 % instead of 0.7 %).
+    ///
+    /// Why eight: over five design seeds (101-105) the realistic truth's held-out worst
+    /// energy error from the log was 1.16-1.82 % with eight excitations and 1.13-2.60 % with
+    /// four (two of five above 2 %, one with its intervals covering 30 % of the motions); the
+    /// exact truth's worst was 0.17-1.02 % and 0.28-0.98 %. `reproduce` takes about 4 s more.
     pub fn irb1200(quick: bool) -> IdSetOptions {
-        IdSetOptions {
+        let mut o = IdSetOptions {
             centres: vec![
                 vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0],
                 vec![1.0, 0.5, -0.2, 1.0, 1.2, 0.5],
                 vec![-1.0, -0.2, 0.4, -1.0, 0.6, -0.5],
                 vec![0.5, 0.7, 0.0, -0.5, 1.4, 1.0],
+                vec![-0.5, 0.4, 0.1, 0.8, 1.0, -1.0],
+                vec![1.5, 0.1, 0.3, -1.2, 0.9, 1.5],
+                vec![-1.5, 0.6, -0.1, 0.5, 1.3, 0.0],
+                vec![0.2, -0.1, 0.5, -0.8, 0.7, -1.2],
             ],
-            loads_kg: vec![0.0, 2.0, 4.5, 7.0],
-            base_freq_hz: vec![0.1, 0.2, 0.1, 0.2],
+            loads_kg: vec![0.0, 2.0, 4.5, 7.0, 1.0, 3.0, 5.5, 6.0],
+            base_freq_hz: vec![0.1, 0.2, 0.1, 0.2, 0.2, 0.1, 0.2, 0.1],
             accel_limits: IRB1200_ACCEL_LIMITS.to_vec(),
             periods: 2,
             criterion: SetCriterion::DOptimal,
@@ -72,7 +82,13 @@ impl IdSetOptions {
             max_evals: if quick { 300 } else { 800 },
             seed: 101,
             fit: FitOptions::default(),
+        };
+        if quick {
+            o.centres.truncate(4);
+            o.loads_kg.truncate(4);
+            o.base_freq_hz.truncate(4);
         }
+        o
     }
 }
 
