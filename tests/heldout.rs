@@ -3,55 +3,17 @@
 
 mod common;
 
-use powertwin::dataset::meta::Urdf;
 use powertwin::dataset::{Dataset, Format};
 use powertwin::identification::data::Route;
 use powertwin::identification::fit::{Estimator, FitOptions, identify_logs};
 use powertwin::measurement::PowerSignal;
-use powertwin::model::builtin;
-use powertwin::model::drive::Drive;
-use powertwin::twin::physics::PhysicsSettings;
-use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
-use powertwin::twin::{Fidelity, TwinConfig};
+use powertwin::twin::Fidelity;
+use powertwin::twin::sensor::NoiseSettings;
 use powertwin::validation::heldout::{self, HeldoutOptions};
 use powertwin::validation::idset::{self, IdSetOptions};
-use powertwin::validation::rig::{Rig, Silent};
+use powertwin::validation::rig::Silent;
 
-fn rig<'a>(
-    robot: &'a powertwin::Robot,
-    drive: &'a Drive,
-    fidelity: Fidelity,
-    noise: NoiseSettings,
-) -> Rig<'a> {
-    let realistic = fidelity == Fidelity::Realistic;
-    Rig {
-        robot,
-        urdf: Urdf::inline(builtin::IRB1200_URDF),
-        drive,
-        twin: TwinConfig {
-            physics: PhysicsSettings {
-                substeps: 3,
-                ..PhysicsSettings::default()
-            },
-            fidelity,
-            nominal_error: if realistic { 0.1 } else { 0.0 },
-            ..TwinConfig::default()
-        },
-        sensor: SensorSettings {
-            noise,
-            power_signal: if realistic {
-                PowerSignal::Bus
-            } else {
-                PowerSignal::Total
-            },
-            ..SensorSettings::default()
-        },
-    }
-}
-
-fn drive(robot: &powertwin::Robot) -> Drive {
-    Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", robot).unwrap()
-}
+use common::{irb1200_drive as drive, irb1200_rig as rig};
 
 #[test]
 fn a_cross_validated_model_predicts_motions_it_never_saw() {

@@ -4,7 +4,6 @@
 
 mod common;
 
-use powertwin::dataset::meta::Urdf;
 use powertwin::dynamics::{DriveTerms, ParamLayout};
 use powertwin::identification::consistency::consistency;
 use powertwin::identification::data::Route;
@@ -14,57 +13,19 @@ use powertwin::identification::fit::{
 };
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::states::States;
-use powertwin::measurement::PowerSignal;
-use powertwin::model::builtin;
-use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
 use powertwin::model::sampling::StateSampler;
 use powertwin::trajectory::limits::{IRB1200_ACCEL_LIMITS, check_limits};
-use powertwin::twin::physics::PhysicsSettings;
-use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
-use powertwin::twin::{Fidelity, TwinConfig};
+use powertwin::twin::Fidelity;
+use powertwin::twin::sensor::NoiseSettings;
 use powertwin::validation::heldout::{self, HeldoutOptions};
 use powertwin::validation::idset::{self, IdSetOptions};
-use powertwin::validation::rig::{Rig, Silent};
+use powertwin::validation::rig::Silent;
 use powertwin::validation::score;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
-fn rig<'a>(
-    robot: &'a powertwin::Robot,
-    drive: &'a Drive,
-    fidelity: Fidelity,
-    noise: NoiseSettings,
-) -> Rig<'a> {
-    let realistic = fidelity == Fidelity::Realistic;
-    Rig {
-        robot,
-        urdf: Urdf::inline(builtin::IRB1200_URDF),
-        drive,
-        twin: TwinConfig {
-            physics: PhysicsSettings {
-                substeps: 3,
-                ..PhysicsSettings::default()
-            },
-            fidelity,
-            nominal_error: if realistic { 0.1 } else { 0.0 },
-            ..TwinConfig::default()
-        },
-        sensor: SensorSettings {
-            noise,
-            power_signal: if realistic {
-                PowerSignal::Bus
-            } else {
-                PowerSignal::Total
-            },
-            ..SensorSettings::default()
-        },
-    }
-}
-
-fn drive(robot: &powertwin::Robot) -> Drive {
-    Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", robot).unwrap()
-}
+use common::{irb1200_drive as drive, irb1200_rig as rig};
 
 /// Two excitations (nothing and 7 kg on the flange) of the IRB 1200.
 fn two_members(criterion: SetCriterion) -> SetOptions {

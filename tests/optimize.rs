@@ -5,9 +5,9 @@
 
 mod common;
 
-use powertwin::dataset::meta::Urdf;
-use powertwin::identification::model::DATASHEET_EFFICIENCY;
-use powertwin::measurement::PowerSignal;
+use std::sync::OnceLock;
+
+use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::model::builtin;
 use powertwin::model::drive::{BrakeWindow, Drive};
 use powertwin::optimize::placement::{self, SearchBox};
@@ -16,33 +16,27 @@ use powertwin::optimize::segment::Task;
 use powertwin::optimize::{CycleBound, Options, optimize};
 use powertwin::trajectory::limits::check_limits;
 use powertwin::trajectory::task::Scenario;
-use powertwin::twin::physics::PhysicsSettings;
-use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::twin::sensor::NoiseSettings;
 use powertwin::twin::{Fidelity, Twin, TwinConfig};
 use powertwin::validation::idset::{self, IdSetOptions};
 use powertwin::validation::optimized::{self, Candidate};
 use powertwin::validation::rig::{Rig, Silent};
 
 fn rig<'a>(robot: &'a powertwin::Robot, drive: &'a Drive) -> Rig<'a> {
-    Rig {
-        robot,
-        urdf: Urdf::inline(builtin::IRB1200_URDF),
-        drive,
-        twin: TwinConfig {
-            physics: PhysicsSettings {
-                substeps: 3,
-                ..PhysicsSettings::default()
-            },
-            fidelity: Fidelity::Realistic,
-            nominal_error: 0.1,
-            ..TwinConfig::default()
-        },
-        sensor: SensorSettings {
-            noise: NoiseSettings::default(),
-            power_signal: PowerSignal::Bus,
-            ..SensorSettings::default()
-        },
-    }
+    common::irb1200_rig(robot, drive, Fidelity::Realistic, NoiseSettings::default())
+}
+
+/// The model of the quick identification set on the realistic twin, identified once for
+/// every test of this file.
+fn model(rig: &Rig) -> &'static PowerModel {
+    static MODEL: OnceLock<PowerModel> = OnceLock::new();
+    MODEL.get_or_init(|| {
+        idset::run(rig, &IdSetOptions::irb1200(true), &Silent)
+            .unwrap()
+            .selection
+            .fit
+            .model
+    })
 }
 
 #[test]
@@ -50,17 +44,12 @@ fn optimised_timing_keeps_its_bounds_and_saves_what_it_predicts() {
     let robot = common::irb1200();
     let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", &robot).unwrap();
     let rig = rig(&robot, &drive);
-    let model = idset::run(&rig, &IdSetOptions::irb1200(true), &Silent)
-        .unwrap()
-        .selection
-        .fit
-        .model;
     let scenario = Scenario::builtin().unwrap();
     let task = Task {
         robot: &robot,
         scenario: &scenario,
         load_kg: 2.0,
-        model: &model,
+        model: model(&rig),
         efficiency: DATASHEET_EFFICIENCY,
     };
     let brakes = drive.brakes();
@@ -135,17 +124,12 @@ fn a_better_placement_saves_over_ten_percent_at_the_fast_plans_cycle_time() {
     let robot = common::irb1200();
     let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", &robot).unwrap();
     let rig = rig(&robot, &drive);
-    let model = idset::run(&rig, &IdSetOptions::irb1200(true), &Silent)
-        .unwrap()
-        .selection
-        .fit
-        .model;
     let scenario = Scenario::builtin().unwrap();
     let task = Task {
         robot: &robot,
         scenario: &scenario,
         load_kg: 2.0,
-        model: &model,
+        model: model(&rig),
         efficiency: DATASHEET_EFFICIENCY,
     };
     let brakes = drive.brakes();

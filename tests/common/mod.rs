@@ -78,3 +78,49 @@ pub fn tmp(name: &str) -> std::path::PathBuf {
     std::fs::create_dir_all(&dir).expect("temporary directory");
     dir.join(name)
 }
+
+/// The built-in IRB 1200 drive file for `robot`.
+pub fn irb1200_drive(robot: &Robot) -> powertwin::model::drive::Drive {
+    powertwin::model::drive::Drive::from_toml_str(
+        powertwin::model::builtin::IRB1200_DRIVE,
+        "built-in",
+        robot,
+    )
+    .expect("the built-in drive file reads")
+}
+
+/// A test rig of the IRB 1200 at 3 substeps: the realistic truth with its controller 10 %
+/// wrong and a DC-bus meter, or the exact truth with a known controller and the motor sum.
+pub fn irb1200_rig<'a>(
+    robot: &'a Robot,
+    drive: &'a powertwin::model::drive::Drive,
+    fidelity: powertwin::twin::Fidelity,
+    noise: powertwin::twin::sensor::NoiseSettings,
+) -> powertwin::validation::rig::Rig<'a> {
+    use powertwin::twin::sensor::SensorSettings;
+    use powertwin::twin::{Fidelity, TwinConfig};
+    let realistic = fidelity == Fidelity::Realistic;
+    powertwin::validation::rig::Rig {
+        robot,
+        urdf: powertwin::dataset::meta::Urdf::inline(powertwin::model::builtin::IRB1200_URDF),
+        drive,
+        twin: TwinConfig {
+            physics: powertwin::twin::physics::PhysicsSettings {
+                substeps: 3,
+                ..Default::default()
+            },
+            fidelity,
+            nominal_error: if realistic { 0.1 } else { 0.0 },
+            ..TwinConfig::default()
+        },
+        sensor: SensorSettings {
+            noise,
+            power_signal: if realistic {
+                powertwin::measurement::PowerSignal::Bus
+            } else {
+                powertwin::measurement::PowerSignal::Total
+            },
+            ..SensorSettings::default()
+        },
+    }
+}
