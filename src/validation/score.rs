@@ -157,7 +157,10 @@ pub struct RouteSummary {
     /// Median of the errors in units of the interval's standard deviation ([`Scores::z`]).
     /// Calibrated intervals give 0.674 (the median of `|N(0, 1)|`); below, they are too wide;
     /// above, too narrow. With 30 motions it says more than the coverage, which calibrated
-    /// intervals put at 100 % one time in five (0.95^30). `None` without intervals.
+    /// intervals put at 100 % one time in five (0.95^30) if the errors were independent. They
+    /// are not: every motion's error projects the same model's parameter error, so one
+    /// benchmark of one model is one draw, and calibration shows over several
+    /// identifications. `None` without intervals.
     pub median_z: Option<f64>,
 }
 
