@@ -273,3 +273,51 @@ fn optimize_cli_refuses_bad_bounds_and_boxes() {
     assert_ne!(code, 0);
     assert!(stderr.contains("/no/such/model.json"), "{stderr}");
 }
+
+/// `powertwin optimize` end to end with an identified model: plan.json with the savings,
+/// the charts and the datasets of both plans; a summary that says when the timing saves
+/// next to nothing.
+#[test]
+fn optimize_cli_writes_the_plan_charts_and_datasets() {
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let rig = rig(&robot, &drive);
+    let dir = common::tmp("optimize_cli_ok");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("model.json");
+    std::fs::write(&path, serde_json::to_string(model(&rig)).unwrap()).unwrap();
+    let out = dir.join("out");
+    let (code, stdout, stderr) = common::run(&[
+        "optimize",
+        "--model",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    for file in [
+        "plan.json",
+        "pareto.svg",
+        "pareto.png",
+        "power.svg",
+        "power.png",
+        "uniform/meta.json",
+        "optimized/meta.json",
+    ] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("plan.json")).unwrap()).unwrap();
+    let num = |k: &str| plan[k].as_f64().unwrap_or_else(|| panic!("{k}"));
+    assert!(num("cycle_time_s") <= num("cycle_time_bound_s") + 1e-9);
+    let predicted = num("predicted_saving_pct");
+    assert!(num("simulated_saving_pct").is_finite());
+    assert!(plan["within_interval"].as_bool().unwrap());
+    assert_eq!(plan["segments"].as_array().unwrap().len(), 12);
+    assert!(plan["pareto"].as_array().unwrap().len() > 2);
+    assert_eq!(
+        stdout.contains("note: at this cycle time"),
+        predicted < 1.0,
+        "{stdout}"
+    );
+}

@@ -393,6 +393,19 @@ fn summary(
             }
         );
     }
+    let timing_saving = checked
+        .plans
+        .first()
+        .map_or(0.0, |(_, s)| s.predicted_saving_pct);
+    if placed.is_none() && timing_saving < 1.0 {
+        outln!(
+            o,
+            "note: at this cycle time the timing saves under 1 %: the uniform plan is already \
+             near the least energy the model finds for it (Pareto front in pareto.svg). A longer \
+             cycle (--cycle-time, --max-slowdown) or a placement search (--search-offset) may \
+             save more."
+        );
+    }
     if let Some(p) = placed {
         outln!(
             o,
