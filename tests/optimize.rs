@@ -39,19 +39,25 @@ fn model(rig: &Rig) -> &'static PowerModel {
     })
 }
 
+/// The built-in pick and place with 2 kg, priced by [`model`] as a user would (data-sheet
+/// efficiency for the known loads).
+fn task_2kg<'a>(rig: &Rig<'a>, scenario: &'a Scenario) -> Task<'a> {
+    Task {
+        robot: rig.robot,
+        scenario,
+        load_kg: 2.0,
+        model: model(rig),
+        efficiency: DATASHEET_EFFICIENCY,
+    }
+}
+
 #[test]
 fn optimised_timing_keeps_its_bounds_and_saves_what_it_predicts() {
     let robot = common::irb1200();
-    let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", &robot).unwrap();
+    let drive = common::irb1200_drive(&robot);
     let rig = rig(&robot, &drive);
     let scenario = Scenario::builtin().unwrap();
-    let task = Task {
-        robot: &robot,
-        scenario: &scenario,
-        load_kg: 2.0,
-        model: model(&rig),
-        efficiency: DATASHEET_EFFICIENCY,
-    };
+    let task = task_2kg(&rig, &scenario);
     let brakes = drive.brakes();
     assert!(
         brakes.is_some(),
@@ -122,16 +128,10 @@ fn optimised_timing_keeps_its_bounds_and_saves_what_it_predicts() {
 #[test]
 fn a_better_placement_saves_over_ten_percent_at_the_fast_plans_cycle_time() {
     let robot = common::irb1200();
-    let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "built-in", &robot).unwrap();
+    let drive = common::irb1200_drive(&robot);
     let rig = rig(&robot, &drive);
     let scenario = Scenario::builtin().unwrap();
-    let task = Task {
-        robot: &robot,
-        scenario: &scenario,
-        load_kg: 2.0,
-        model: model(&rig),
-        efficiency: DATASHEET_EFFICIENCY,
-    };
+    let task = task_2kg(&rig, &scenario);
     let brakes = drive.brakes();
     let opts = Options::default();
     let found = optimize(&task, 0.5, CycleBound::SlowdownPct(0.0), brakes, &opts).unwrap();

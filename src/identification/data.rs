@@ -135,12 +135,30 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
     let t = &log.t_s;
     let q = &log.q_rad;
     let n = q.len();
-    let states = match route {
+    // The motion through the log, and the states at the sample times along it (the Fourier
+    // series is fitted once and evaluated there; the spline and smoothing routes give the
+    // states and interpolate them).
+    let sampled = |s: &States| -> Result<Box<dyn Trajectory>> {
+        Ok(Box::new(Sampled::new(
+            s.t.clone(),
+            s.q.clone(),
+            Some(s.dq.clone()),
+            Some(s.ddq.clone()),
+        )?))
+    };
+    let (states, motion): (States, Box<dyn Trajectory>) = match route {
         Route::Fourier {
             base_freq_hz,
             harmonics,
-        } => from_fourier(&fit_fourier(t, q, base_freq_hz, harmonics)?.series, t),
-        Route::Spline => from_spline(t, q)?,
+        } => {
+            let series = fit_fourier(t, q, base_freq_hz, harmonics)?.series;
+            (from_fourier(&series, t), Box::new(series))
+        }
+        Route::Spline => {
+            let s = from_spline(t, q)?;
+            let m = sampled(&s)?;
+            (s, m)
+        }
         Route::Smoothing { window, degree } => {
             let mut s = from_smoothing(t, q, window, degree)?;
             for i in 0..n {
@@ -151,20 +169,9 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
                     }
                 }
             }
-            s
+            let m = sampled(&s)?;
+            (s, m)
         }
-    };
-    let motion: Box<dyn Trajectory> = match route {
-        Route::Fourier {
-            base_freq_hz,
-            harmonics,
-        } => Box::new(fit_fourier(t, q, base_freq_hz, harmonics)?.series),
-        Route::Spline | Route::Smoothing { .. } => Box::new(Sampled::new(
-            states.t.clone(),
-            states.q.clone(),
-            Some(states.dq.clone()),
-            Some(states.ddq.clone()),
-        )?),
     };
     let excited: Vec<usize> = (0..n)
         .filter(|&i| {

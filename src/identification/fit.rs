@@ -513,17 +513,7 @@ impl Fit {
         let values = pick(&self.estimate.values);
         Estimate {
             names: free.iter().map(|&k| names[k].clone()).collect(),
-            rel_std: values
-                .iter()
-                .zip(&std)
-                .map(|(v, s)| {
-                    if *v == 0.0 {
-                        f64::INFINITY
-                    } else {
-                        s / v.abs()
-                    }
-                })
-                .collect(),
+            rel_std: crate::identification::lsq::rel_std(&values, &std),
             values,
             std,
             covariance: DMatrix::from_fn(free.len(), free.len(), |r, c| {

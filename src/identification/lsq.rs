@@ -112,17 +112,7 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
     let covariance = DMatrix::from_fn(p, p, |a, b| {
         s2 * inv_s.column(a).dot(&inv_s.column(b)) / (norms[a] * norms[b])
     });
-    let rel_std = values
-        .iter()
-        .zip(&std)
-        .map(|(v, s)| {
-            if *v == 0.0 {
-                f64::INFINITY
-            } else {
-                s / v.abs()
-            }
-        })
-        .collect();
+    let rel_std = rel_std(&values, &std);
     Ok(Estimate {
         names: names.to_vec(),
         values,
@@ -133,4 +123,19 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
         rows: m,
         covariance,
     })
+}
+
+/// Relative standard deviations `std / |value|` (infinite for a value of 0).
+pub(crate) fn rel_std(values: &[f64], std: &[f64]) -> Vec<f64> {
+    values
+        .iter()
+        .zip(std)
+        .map(|(v, s)| {
+            if *v == 0.0 {
+                f64::INFINITY
+            } else {
+                s / v.abs()
+            }
+        })
+        .collect()
 }

@@ -16,7 +16,7 @@ use crate::trajectory::task::TaskRun;
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
 use crate::validation::score::energy_error_pct;
-use crate::validation::sweep::TRACKING_ERROR_BOUND_RAD;
+use crate::validation::sweep::run_flagged;
 
 /// One plan on the twin.
 #[derive(Debug, Clone, Serialize)]
@@ -43,7 +43,7 @@ pub struct PlanCheck {
     /// Joints whose torque the twin clipped.
     pub torque_limit_hits: Vec<TorqueLimitHit>,
     /// Whether the twin did not perform the plan as planned (saturated torque or tracking
-    /// error above [`TRACKING_ERROR_BOUND_RAD`]).
+    /// error above [`TRACKING_ERROR_BOUND_RAD`](crate::validation::sweep::TRACKING_ERROR_BOUND_RAD)).
     pub flagged: bool,
 }
 
@@ -166,9 +166,7 @@ pub fn check(
                     simulated_j,
                     error_pct: energy_error_pct(predicted_j, simulated_j),
                     braked_s,
-                    flagged: !report.torque_limit_hits.is_empty()
-                        || report.max_tracking_error_rad.is_nan()
-                        || report.max_tracking_error_rad > TRACKING_ERROR_BOUND_RAD,
+                    flagged: run_flagged(&report),
                     max_tracking_error_rad: report.max_tracking_error_rad,
                     torque_limit_hits: report.torque_limit_hits,
                 },

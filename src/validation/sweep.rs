@@ -25,6 +25,14 @@ use crate::validation::rig::{Progress, Rig};
 /// controller without integral action is an honest worst case, not a model of ABB's.
 pub const TRACKING_ERROR_BOUND_RAD: f64 = 0.05;
 
+/// Whether a twin run is flagged: a joint torque saturated, or the tracking error exceeded
+/// [`TRACKING_ERROR_BOUND_RAD`] (or is not a number).
+pub fn run_flagged(report: &crate::twin::RunReport) -> bool {
+    !report.torque_limit_hits.is_empty()
+        || report.max_tracking_error_rad.is_nan()
+        || report.max_tracking_error_rad > TRACKING_ERROR_BOUND_RAD
+}
+
 /// One cell of the grid.
 #[derive(Debug, Clone, Serialize)]
 pub struct Cell {
@@ -236,9 +244,7 @@ pub fn run(
                     error_pct: pred
                         .map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
                     slowed: plan.motion.slowed.clone(),
-                    flagged: !report.torque_limit_hits.is_empty()
-                        || report.max_tracking_error_rad.is_nan()
-                        || report.max_tracking_error_rad > TRACKING_ERROR_BOUND_RAD,
+                    flagged: run_flagged(&report),
                     max_tracking_error_rad: report.max_tracking_error_rad,
                     torque_limit_hits: report.torque_limit_hits,
                 },
