@@ -51,8 +51,9 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
     let (h, datasets) = heldout::run(&rig, model, &opts, &Silent).unwrap();
     assert_eq!(h.motions.len(), 9);
     assert_eq!(datasets.len(), 9);
-    // Measured on this set: log 0.27 % median / 1.05 % worst, plan 0.33 / 0.84 %, power
-    // RMSE worst 2.9 W (meter noise 1 W; 3.3 W with the local quartic route), coverage 89 %.
+    // Measured on this set: log 0.42 % median / 1.34 % worst, plan 0.26 / 0.70 %, power
+    // RMSE worst 2.44 W (meter noise 1 W; 2.9 W before the spline route's log-end rule, 3.3 W
+    // with the local quartic route), coverage 89 / 100 %.
     assert!(
         h.from_log.energy_error_pct.median <= 0.6,
         "{:?}",
@@ -64,7 +65,7 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
         "{:?}",
         h.from_plan
     );
-    assert!(h.power_rmse_w.worst <= 3.5, "{:?}", h.power_rmse_w);
+    assert!(h.power_rmse_w.worst <= 3.0, "{:?}", h.power_rmse_w);
     // The baseline (URDF + data-sheet efficiency) is tens of per cent off.
     assert!(h.baseline.energy_error_pct.median >= 10.0);
     // Intervals cover most motions (95 % nominal; 9 motions).
