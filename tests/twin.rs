@@ -321,3 +321,37 @@ fn bad_inputs_are_errors() {
         "{e}"
     );
 }
+
+#[test]
+fn a_reference_at_rest_gets_no_friction_feedforward_from_rounding() {
+    use powertwin::twin::controller::{Controller, Gains};
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let terms = DriveTerms::from(&drive);
+    let mut ctrl = Controller::new(robot.clone(), terms.clone(), Gains::default());
+    let q = [0.1, 0.4, -0.3, 0.2, 0.9, 0.0];
+    let zero = [0.0; 6];
+    let torque = |ctrl: &mut Controller, dq_ref: &[f64]| {
+        let mut tau = [0.0; 6];
+        ctrl.torque(&q, &zero, &q, dq_ref, &zero, &mut tau);
+        tau
+    };
+    let at_rest = torque(&mut ctrl, &zero);
+    // The first instant of a reference that starts from rest: speeds of rounding size.
+    let dust = [1e-17, -1e-17, 3e-18, -2e-16, 1e-17, -1e-17];
+    for (a, b) in torque(&mut ctrl, &dust).iter().zip(&at_rest) {
+        assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+    }
+    // A reference that moves gets the Coulomb torque in its direction.
+    let moving = torque(&mut ctrl, &[1e-6, -1e-6, 1e-6, -1e-6, 1e-6, -1e-6]);
+    for i in 0..6 {
+        let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+        assert!(
+            (moving[i] - at_rest[i] - sign * terms.coulomb[i]).abs() < 1e-3,
+            "joint {}: {} vs {}",
+            i + 1,
+            moving[i],
+            at_rest[i]
+        );
+    }
+}
