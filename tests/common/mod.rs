@@ -68,15 +68,23 @@ pub fn run(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-/// A path `name` in a temporary directory private to this test binary and process.
+/// A path `name` in the scratch directory of this test binary: `powertwin-<binary>` under
+/// Cargo's `CARGO_TARGET_TMPDIR` (inside the target directory, so `cargo clean` removes it),
+/// emptied when the binary first asks for it. Each run of a test binary replaces its
+/// predecessor's files instead of leaving them behind (the reproduce tests write hundreds of
+/// MB); tests of one binary share it, so names must differ between them.
 pub fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "powertwin-{}-{}",
-        env!("CARGO_CRATE_NAME"),
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&dir).expect("temporary directory");
-    dir.join(name)
+    static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("powertwin-{}", env!("CARGO_CRATE_NAME")));
+        if dir.exists() {
+            std::fs::remove_dir_all(&dir).expect("the previous run's scratch directory");
+        }
+        std::fs::create_dir_all(&dir).expect("scratch directory");
+        dir
+    })
+    .join(name)
 }
 
 /// The built-in IRB 1200 drive file for `robot`.
