@@ -655,6 +655,17 @@ mod spline_route {
         let fast = wave(1000.0);
         let s = noise_levels(&fast, &none(&fast))[0];
         assert!((s / 1e-5 - 1.0).abs() < 0.2, "{s}");
+        // Joint by joint: a 10 Hz joint that only jitters (white, 5e-4 rad) beside one that
+        // moves smoothly keeps its level to itself; the smooth joint is interpolated.
+        let mut rng = common::rng(6);
+        let smooth: Vec<f64> = (0..200).map(|k| (0.13 * k as f64).sin()).collect();
+        let jitter: Vec<f64> = (0..200)
+            .map(|_| 5e-4 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64))
+            .collect();
+        let both = vec![smooth, jitter];
+        let s = noise_levels(&both, &none(&both));
+        assert_eq!(s[0], 0.0, "{s:?}");
+        assert!((s[1] / 5e-4 - 1.0).abs() < 0.5, "{s:?}");
     }
     #[test]
     fn an_averaging_logger_gets_the_states_of_its_windows() {
