@@ -51,7 +51,7 @@ fn a_cross_validated_model_predicts_motions_it_never_saw() {
     let (h, datasets) = heldout::run(&rig, model, &opts, &Silent).unwrap();
     assert_eq!(h.motions.len(), 9);
     assert_eq!(datasets.len(), 9);
-    // Measured on this set: log 0.42 % median / 1.34 % worst, plan 0.26 / 0.70 %, power
+    // Measured on this set: log 0.14 % median / 1.34 % worst, plan 0.26 / 0.70 %, power
     // RMSE worst 2.44 W (meter noise 1 W; 2.9 W before the spline route's log-end rule, 3.3 W
     // with the local quartic route), coverage 89 / 100 %.
     assert!(
