@@ -227,10 +227,10 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
     // A motion next to a rest starts or stops there. At a log end it runs on beyond the log
     // (free), unless the free spline's end speed is one the samples do not support
     // ([`unsupported_end_speed`]): then the motion starts (stops) at rest there.
+    let end = |next_to_rest: bool| if next_to_rest { End::Rest } else { End::Free };
     for &(_, first, last) in stretches.iter().filter(|r| !r.0) {
         let times = &t[first..=last];
         let len = times.len();
-        let end = |next_to_rest: bool| if next_to_rest { End::Rest } else { End::Free };
         for (((x, v), a), &sigma) in s.q.iter_mut().zip(&mut s.dq).zip(&mut s.ddq).zip(&sigma) {
             let samples = &x[first..=last];
             let (mut start, mut stop) = (end(first > 0), end(last < m - 1));
@@ -244,13 +244,13 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
                     smoothed[len - 1] - smoothed[len - 2],
                     times[len - 1] - times[len - 2],
                 );
+            if rest_start {
+                start = End::Rest;
+            }
+            if rest_stop {
+                stop = End::Rest;
+            }
             if rest_start || rest_stop {
-                if rest_start {
-                    start = End::Rest;
-                }
-                if rest_stop {
-                    stop = End::Rest;
-                }
                 smoothed = smooth(times, samples, start, stop, sigma)?;
                 (vel, acc) = quintic(times, &smoothed, start, stop)?;
             }
