@@ -97,10 +97,14 @@ fn heldout(w: &mut String, r: &Results) {
     let _ = writeln!(
         w,
         "\nPower RMSE at the logged samples (meter noise included), median / p95 / worst: \
-         {:.2} / {:.2} / {:.2} W (baseline {:.1} / {:.1} / {:.1} W).\n",
+         {:.2} / {:.2} / {:.2} W from the log, {:.2} / {:.2} / {:.2} W from the plan \
+         (baseline {:.1} / {:.1} / {:.1} W).\n",
         h.power_rmse_w.median,
         h.power_rmse_w.p95,
         h.power_rmse_w.worst,
+        h.plan_power_rmse_w.median,
+        h.plan_power_rmse_w.p95,
+        h.plan_power_rmse_w.worst,
         h.baseline_power_rmse_w.median,
         h.baseline_power_rmse_w.p95,
         h.baseline_power_rmse_w.worst
@@ -117,14 +121,14 @@ fn heldout(w: &mut String, r: &Results) {
             "± 95 % J",
             "plan error %",
             "above standby %",
-            "RMSE W",
+            "RMSE W log / plan",
             "baseline %",
         ],
     );
     for mo in &h.motions {
         let _ = writeln!(
             w,
-            "| {} | {}{} | {:.2} | {:.1} | {:.1} | {:+.3} | {:.1} | {:+.3} | {:+.3} | {:.2} | {:+.1} |",
+            "| {} | {}{} | {:.2} | {:.1} | {:.1} | {:+.3} | {:.1} | {:+.3} | {:+.3} | {:.2} / {:.2} | {:+.1} |",
             mo.index,
             mo.kind,
             mo.tcp_speed_m_s
@@ -137,6 +141,7 @@ fn heldout(w: &mut String, r: &Results) {
             mo.from_plan.energy_error_pct,
             mo.from_log.above_standby_error_pct,
             mo.power_rmse_w,
+            mo.plan_power_rmse_w,
             mo.baseline.energy_error_pct
         );
     }

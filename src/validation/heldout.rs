@@ -225,9 +225,12 @@ pub struct Heldout {
     pub from_plan: RouteSummary,
     /// The baseline, from the logs.
     pub baseline: RouteSummary,
-    /// Power RMSE at the logged samples, W.
+    /// Power RMSE at the logged samples, predicted from the logs, W.
     #[serde(rename = "power_rmse_W")]
     pub power_rmse_w: Spread,
+    /// The same, predicted from the commanded trajectories, W.
+    #[serde(rename = "plan_power_rmse_W")]
+    pub plan_power_rmse_w: Spread,
     /// The same for the baseline, W.
     #[serde(rename = "baseline_power_rmse_W")]
     pub baseline_power_rmse_w: Spread,
@@ -293,6 +296,7 @@ pub fn run(
         from_plan: RouteSummary::of(motions.iter().map(|m| &m.from_plan)),
         baseline: RouteSummary::of(motions.iter().map(|m| &m.baseline)),
         power_rmse_w: Spread::of(motions.iter().map(|m| m.power_rmse_w)),
+        plan_power_rmse_w: Spread::of(motions.iter().map(|m| m.plan_power_rmse_w)),
         baseline_power_rmse_w: Spread::of(motions.iter().map(|m| m.baseline_power_rmse_w)),
         motions,
     };
