@@ -237,6 +237,71 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
     let interval = recorded["interval_95_J"].as_f64().unwrap();
     assert!(interval > 0.0 && interval < 0.05 * e(&recorded));
     assert!((e(&wrong) - e(&recorded)).abs() > 0.005 * e(&recorded));
+    // The power at the logged samples, to see where the model misses: one row per logged
+    // sample, the measured column the meter's, and the RMSE the one printed.
+    let csv_path = dir.join("power.csv");
+    let with_power = predict(&["--power-out", csv_path.to_str().unwrap()]);
+    let text = std::fs::read_to_string(&csv_path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("log,t_s,measured_total_W,predicted_total_W")
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), ds.measured.t.len());
+    let mut se = 0.0;
+    for (r, (t, y)) in rows
+        .iter()
+        .zip(ds.measured.t.iter().zip(&ds.measured.p_total))
+    {
+        assert_eq!((r[0], r[1], r[2]), (1.0, *t, *y));
+        se += (r[3] - r[2]).powi(2);
+    }
+    let rmse = (se / rows.len() as f64).sqrt();
+    let printed = with_power["power_rmse_W"].as_f64().unwrap();
+    assert!(
+        (rmse - printed).abs() < 1e-9 && rmse < 3.0,
+        "{rmse} / {printed} W"
+    );
+    let (code, _, err) = common::run(&[
+        "predict",
+        "--model",
+        model_path.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--power-out",
+        dir.join("no_such_dir/power.csv").to_str().unwrap(),
+    ]);
+    assert!(code != 0 && err.contains("no_such_dir"), "{err}");
+    // The log and the model's power along its route in Rerun: the robot and the measured
+    // power at the log's samples, the prediction at 50 Hz between them.
+    #[cfg(feature = "viz")]
+    {
+        use powertwin::viz::TIMELINE;
+        let rrd_path = dir.join("predict.rrd");
+        predict(&["--save", rrd_path.to_str().unwrap()]);
+        let content = common::rrd::read(&rrd_path);
+        let samples = ds.measured.t.len();
+        for name in [
+            "robot/link_6",
+            "measured/q/q6_rad",
+            "power/total/measured_W",
+        ] {
+            let rows = content.rows(&format!("predict/log1/{name}"), TIMELINE);
+            assert_eq!(rows, samples, "{name}");
+        }
+        let duration = ds.measured.t[samples - 1] - ds.measured.t[0];
+        for name in ["power/total/predicted_W", "power/joint6/predicted_W"] {
+            let rows = content.rows(&format!("predict/log1/{name}"), TIMELINE) as f64;
+            assert!(
+                (rows - (50.0 * duration + 1.0)).abs() <= 1.0,
+                "{name}: {rows}"
+            );
+        }
+        assert!(content.blueprint_chunks > 0);
+    }
     // The route before the spline stays an option: a local quartic through 5 samples.
     let quartic = predict(&["--smoothing-window", "5"]);
     assert_ne!(e(&quartic), e(&recorded));

@@ -1,5 +1,5 @@
-//! `powertwin identify` and `powertwin predict`: parameters from motor power, and the energy
-//! the identified model predicts.
+//! `powertwin identify`: parameters from motor power (datasets or measured logs), and the
+//! arguments it shares with `predict` (route, payloads).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -10,11 +10,10 @@ use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
 use powertwin::identification::consistency::consistency;
-use powertwin::identification::data::{Prepared, Route, power_times, prepare};
+use powertwin::identification::data::{Prepared, Route, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
 use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_logs};
 use powertwin::identification::linear::{self, Observation};
-use powertwin::identification::model::DATASHEET_EFFICIENCY;
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
@@ -24,8 +23,8 @@ use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
 use serde_json::json;
 
+use super::RobotArgs;
 use super::log::{LogArgs, load_logs};
-use super::{RobotArgs, read_model};
 
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -85,7 +84,7 @@ pub struct RouteArgs {
 }
 
 impl RouteArgs {
-    fn route(&self) -> Route {
+    pub(super) fn route(&self) -> Route {
         match (self.base_freq, self.smoothing_window) {
             (Some(f), _) => Route::Fourier {
                 base_freq_hz: f,
@@ -201,7 +200,7 @@ fn read_logs(data: &[PathBuf], robot: &Robot, payloads: &PayloadArgs) -> Result<
 
 /// The logs of `--data` datasets or `--log` files, for `robot`, with the payload timeline of
 /// `payloads` when given.
-fn gather(
+pub(super) fn gather(
     data: &[PathBuf],
     log_args: &LogArgs,
     robot: &Robot,
@@ -407,133 +406,5 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             consistency.negative_drive_terms.join(", ")
         }
     );
-    Ok(ExitCode::SUCCESS)
-}
-
-/// Arguments of `predict`.
-#[derive(Debug, Args)]
-pub struct PredictArgs {
-    #[command(flatten)]
-    robot: RobotArgs,
-    /// Model file written by `identify` (or `reproduce`'s model.json).
-    #[arg(long, value_name = "MODEL.json")]
-    model: PathBuf,
-    /// Dataset to predict (a twin run; its truth is shown for scoring).
-    #[arg(
-        long,
-        value_name = "DIR",
-        required_unless_present = "log",
-        conflicts_with = "log"
-    )]
-    data: Option<PathBuf>,
-    #[command(flatten)]
-    logs: LogArgs,
-    #[command(flatten)]
-    route: RouteArgs,
-    #[command(flatten)]
-    payloads: PayloadArgs,
-    /// Machine-readable JSON instead of text.
-    #[arg(long)]
-    json: bool,
-}
-
-/// Run `predict`.
-pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
-    let robot = args.robot.load()?;
-    let model = read_model(&args.model, &robot)?;
-    let data: Vec<PathBuf> = args.data.iter().cloned().collect();
-    let logs = gather(&data, &args.logs, &robot, &args.payloads)?;
-    // The twin's truth, for scoring only: the energy of the logged signal.
-    let simulated = match &args.data {
-        Some(d) => {
-            let ds = Dataset::read(d)?;
-            Some(if model.signal.clipped() {
-                ds.meta.summary.energy_grid_j
-            } else {
-                ds.meta.summary.energy_total_j
-            })
-        }
-        None => None,
-    };
-    let mut rows = Vec::new();
-    for log in &logs {
-        let p = prepare(log, args.route.route())?;
-        let events = p.motion_events();
-        let pred = model.predict(
-            &robot,
-            p.motion.as_ref(),
-            &events,
-            DATASHEET_EFFICIENCY,
-            1e-3,
-        )?;
-        let measured: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
-            .iter()
-            .sum();
-        let t: Vec<f64> = power_times(&p.states.t, p.power_averaged)
-            .iter()
-            .map(|t| t - p.motion_t0_s)
-            .collect();
-        let power = model.power_with_payloads(
-            &robot,
-            p.motion.as_ref(),
-            &events,
-            DATASHEET_EFFICIENCY,
-            &t,
-        )?;
-        let se: f64 = power
-            .iter()
-            .zip(&p.p_total)
-            .map(|(pp, y)| {
-                let pp = if model.signal.clipped() {
-                    pp.max(0.0)
-                } else {
-                    *pp
-                };
-                (pp - y).powi(2)
-            })
-            .sum();
-        let rmse = (se / p.states.len() as f64).sqrt();
-        rows.push((log.source.clone(), pred, measured, rmse));
-    }
-    let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
-    let json_rows: Vec<serde_json::Value> = rows
-        .iter()
-        .map(|(source, pred, measured, rmse)| {
-            let mut v = json!({
-                "source": source,
-                "predicted_J": pred.energy_j, "interval_95_J": pred.interval_j,
-                "measured_J": measured, "error_vs_measured_pct": pct(pred.energy_j, *measured),
-                "power_rmse_W": rmse, "power_signal": model.signal.name(),
-            });
-            if let (Some(sim), 1) = (simulated, rows.len()) {
-                v["simulated_J"] = json!(sim);
-                v["error_vs_simulated_pct"] = json!(pct(pred.energy_j, sim));
-            }
-            v
-        })
-        .collect();
-    if args.json {
-        let out = if json_rows.len() == 1 {
-            json_rows[0].clone()
-        } else {
-            json!(json_rows)
-        };
-        super::emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
-    } else {
-        let mut o = String::new();
-        for (source, pred, measured, rmse) in &rows {
-            let sim = match (simulated, rows.len()) {
-                (Some(s), 1) => format!(", simulated {s:.2} J ({:+.3} %)", pct(pred.energy_j, s)),
-                _ => String::new(),
-            };
-            o.push_str(&format!(
-                "{source}: predicted {:.2} ± {:.2} J (95 %){sim}, measured {measured:.2} J ({:+.3} %), power RMSE {rmse:.3} W\n",
-                pred.energy_j,
-                pred.interval_j,
-                pct(pred.energy_j, *measured)
-            ));
-        }
-        super::emit(&o)?;
-    }
     Ok(ExitCode::SUCCESS)
 }

@@ -27,6 +27,7 @@ mod identify;
 mod log;
 mod model;
 mod optimize;
+mod predict;
 mod progress;
 mod reproduce;
 mod simulate;
@@ -84,7 +85,7 @@ enum Command {
     /// Identify base parameters (and motor losses) from the power in datasets.
     Identify(identify::IdentifyArgs),
     /// Predict the energy of a dataset's motion with an identified model (95 % interval).
-    Predict(identify::PredictArgs),
+    Predict(predict::PredictArgs),
     /// Judge an identified model on held-out motions run on the twin (out of sample).
     Validate(validate::ValidateArgs),
     /// Run the Rapier twin along a trajectory and write a ground-truth dataset.
@@ -433,7 +434,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::BaseParams(a) => base_params::run(&a),
         Command::Excite(a) => excite::run(&a),
         Command::Identify(a) => identify::run_identify(&a),
-        Command::Predict(a) => identify::run_predict(&a),
+        Command::Predict(a) => predict::run_predict(&a),
         Command::Validate(a) => validate::run(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Sweep(a) => sweep::run(&a),

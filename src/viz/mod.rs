@@ -16,17 +16,17 @@
 //! | `{prefix}/robot` | base frame (z up), 3-D view origin | [`Viz::log_robot`], [`Viz::log_recording`] |
 //! | `{prefix}/robot/base/visual_k` | base shapes | same |
 //! | `{prefix}/robot/link_i/visual_k` | shapes of link `i` (1-based) in its MDH frame | same |
-//! | `{prefix}/robot/link_i` | pose of link frame `i` in the base frame, on `sim_time` | same |
+//! | `{prefix}/robot/link_i` | pose of link frame `i` in the base frame, on `sim_time` | same, [`Viz::log_measurement`] (the log's clock) |
 //! | `{prefix}/robot/flange_path` | path of the flange origin, m (line strip) | [`Viz::log_recording`] |
 //! | `{prefix}/robot/link_n/tcp` | the tool centre point, moving with the last link | [`Viz::log_task`] |
 //! | `{prefix}/robot/tcp_path` | planned TCP path, m (line strip) | [`Viz::log_task`] |
 //! | `{prefix}/robot/via_points` | via points, labelled (A-F of the pick and place) | [`Viz::log_task`] |
 //! | `{prefix}/joints/q/q{i}_rad`, `joints/dq/dq{i}_rad_s`, `joints/tau/tau{i}_Nm` | joint signals | [`Viz::log_recording`] |
-//! | `{prefix}/power/joint{i}/{simulated,measured,predicted}_W` | electrical power of motor `i`, one plot per motor | [`Viz::log_recording`], [`Viz::log_measured`], [`Viz::log_prediction`] |
+//! | `{prefix}/power/joint{i}/{simulated,measured,predicted}_W` | electrical power of motor `i`, one plot per motor | [`Viz::log_recording`], [`Viz::log_measured`], [`Viz::log_measurement`], [`Viz::log_prediction`] |
 //! | `{prefix}/power/total/{simulated,grid,measured,predicted}_W` | total power, one plot | same |
 //! | `{prefix}/energy/{simulated,grid,predicted}_J` | cumulative energy | [`Viz::log_recording`], [`Viz::log_prediction`] |
 //! | `{prefix}/payload/mass_kg` | payload at the flange | [`Viz::log_recording`] |
-//! | `{prefix}/measured/q/q{i}_rad` | logged encoder positions | [`Viz::log_measured`] |
+//! | `{prefix}/measured/q/q{i}_rad` | logged encoder positions | [`Viz::log_measured`], [`Viz::log_measurement`] |
 //! | `{prefix}/events` | text log: payload mounted, picked, released; via points reached | [`Viz::log_events`], [`Viz::log_task`] |
 //! | `{root}/error_pct`, `{root}/table` | identified against true parameters: error bars (%) and a table | [`Viz::log_parameters`] |
 //! | `{root}/energy_J/load_{L}kg_{twin,model}`, `{root}/table` | sweep: energy per cycle against TCP speed (timeline [`SPEED_TIMELINE`], mm/s) per load, and a table | [`Viz::log_sweep_cells`] |

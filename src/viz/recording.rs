@@ -7,6 +7,7 @@ use rerun::{LineStrips3D, TimeColumn};
 use super::{TIMELINE, Viz, entity, viz_err};
 use crate::error::{Error, Result, ensure_finite};
 use crate::kinematics::fk::{flange_pose, link_poses};
+use crate::measurement::Log;
 use crate::model::Robot;
 use crate::twin::record::{Measured, Recording};
 
@@ -128,6 +129,61 @@ impl Viz {
             )?;
         }
         self.log_scalars(&entity(prefix, "power/total/measured_W"), &m.t, &m.p_total)
+    }
+
+    /// Log a measured log (a user's robot or a twin dataset read as one) under `prefix` at its
+    /// own rate, on the log's clock: the robot's shapes and moving links (forward kinematics
+    /// of the logged positions), the positions (`measured/q/q{i}_rad`), the logged power of
+    /// its signal (`power/total/measured_W`: motor sum, DC bus or grid, as the log says) and,
+    /// when logged, each motor's (`power/joint{i}/measured_W`).
+    ///
+    /// Fails with [`Error::InvalidInput`] when the log is not valid ([`Log::validate`]) or
+    /// its joint count is not the robot's.
+    pub fn log_measurement(&self, robot: &Robot, log: &Log, prefix: &str) -> Result<()> {
+        log.validate()?;
+        if log.dof() != robot.dof() {
+            return Err(Error::InvalidInput(format!(
+                "{}: {} joints, robot '{}' has {}",
+                log.source,
+                log.dof(),
+                robot.name(),
+                robot.dof()
+            )));
+        }
+        self.log_geometry(robot, prefix)?;
+        let n = robot.dof();
+        let mut q = vec![0.0; n];
+        let mut frame = vec![Isometry3::identity(); n];
+        let mut links = vec![Vec::with_capacity(log.len()); n];
+        for k in 0..log.len() {
+            for (qi, series) in q.iter_mut().zip(&log.q_rad) {
+                *qi = series[k];
+            }
+            link_poses(robot, &q, &mut frame);
+            for (l, p) in links.iter_mut().zip(&frame) {
+                l.push(*p);
+            }
+        }
+        self.log_link_poses(prefix, &log.t_s, &links)?;
+        for (j, series) in (1..).zip(&log.q_rad) {
+            self.log_scalars(
+                &entity(prefix, &format!("measured/q/q{j}_rad")),
+                &log.t_s,
+                series,
+            )?;
+        }
+        for (j, series) in (1..).zip(log.motor_power_w.iter().flatten()) {
+            self.log_scalars(
+                &entity(prefix, &format!("power/joint{j}/measured_W")),
+                &log.t_s,
+                series,
+            )?;
+        }
+        self.log_scalars(
+            &entity(prefix, "power/total/measured_W"),
+            &log.t_s,
+            &log.power_w,
+        )
     }
 
     /// Log a model's predicted power under `prefix` at times `t` (s, increasing), next to the
