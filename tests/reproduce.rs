@@ -126,7 +126,9 @@ fn check_schema(r: &Value) {
     for key in ["structure_sigma_W", "structure_rel", "residual_rms_W"] {
         num(model, key);
     }
-    assert_eq!(model["weighting"], "none");
+    assert_eq!(model["weighting"], "power-level");
+    // No standby rest in the default set (tests/idset.rs measures what one does).
+    assert!(model["standby"].is_null());
     assert_eq!(model["consistent"], true);
     assert_eq!(model["design"]["criterion"], "d-optimal");
     num(&model["design"], "stacked_cond");

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use powertwin::identification::excitation::{ExcitationOptions, design, rest_pose};
+use powertwin::identification::excitation::{ExcitationOptions, design, rest_pose, standby_pose};
 use powertwin::io::table::to_csv;
 use powertwin::io::write_atomic;
 use powertwin::trajectory::Trajectory;
@@ -137,8 +137,18 @@ pub fn run(args: &ExciteArgs) -> Result<ExitCode> {
         .collect();
     write_atomic(&args.out, to_csv(&headers, &cols).as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))?;
+    // Where a rest pins the standby power (not part of the trajectory).
+    let standby = standby_pose(
+        &robot,
+        opts.position_margin + 0.05,
+        opts.floor_z,
+        opts.base_radius,
+    )
+    .ok();
     if args.json {
         let report = json!({
+            "standby_pose_rad": standby.as_ref().map(|s| &s.0),
+            "standby_gravity_torque_Nm": standby.as_ref().map(|s| &s.1),
             "joints": joints.iter().map(|j| j + 1).collect::<Vec<_>>(),
             "cond_initial": ex.cond_initial, "cond_final": ex.cond_final,
             "parameters": ex.parameters, "evaluations": ex.evaluations, "wall_s": ex.wall_s,
@@ -158,6 +168,16 @@ pub fn run(args: &ExciteArgs) -> Result<ExitCode> {
             traj.duration(),
             args.out.display()
         ))?;
+        if let Some((q, tau)) = &standby {
+            super::emit(&format!(
+                "also log the robot held still for 20 s or more at q = [{}] rad (gravity torques at most {:.2} N m by the URDF): that rest pins the identified standby power\n",
+                q.iter()
+                    .map(|v| format!("{v:.3}"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                tau.iter().fold(0.0_f64, |m, t| m.max(t.abs()))
+            ))?;
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

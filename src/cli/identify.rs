@@ -10,7 +10,7 @@ use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
 use powertwin::identification::consistency::consistency;
-use powertwin::identification::data::{Prepared, Route, prepare};
+use powertwin::identification::data::{Prepared, Route, ensure_motion, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
 use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_logs};
 use powertwin::identification::linear::{self, Observation};
@@ -305,6 +305,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
                 Ok(p)
             })
             .collect::<Result<_>>()?;
+        ensure_motion(&prepared)?;
         let mut model = PowerModel::new(&robot, layout, true)?;
         let estimates = match args.method {
             Method::PerJoint => {

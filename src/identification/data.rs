@@ -113,6 +113,19 @@ impl Prepared {
     }
 }
 
+/// Errors unless some log of `prepared` moves a joint: rests alone identify nothing but the
+/// standby power.
+pub fn ensure_motion(prepared: &[Prepared]) -> Result<()> {
+    if prepared.iter().all(|p| p.excited.is_empty()) {
+        return Err(Error::InvalidInput(
+            "no joint moves in any log: nothing to identify (a log of the robot at rest pins \
+             the standby power, beside logs of motion)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Times (s, log time) the logged power belongs to, one per sample of `t` (s): the sample
 /// times, or, when the logger averages power over each sample period, the middle of each
 /// period `[t_k-1, t_k]`, where a smooth power takes its period's mean to second order (the
@@ -129,7 +142,9 @@ pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
         .collect()
 }
 
-/// Prepare the log along `route`.
+/// Prepare the log along `route`. A log in which no joint moves (a robot held at rest: its
+/// standby and holding power) is prepared too, with no excited joint; identification needs
+/// logs of motion beside it ([`ensure_motion`]).
 pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
     log.validate()?;
     let t = &log.t_s;
@@ -183,11 +198,6 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             hi - lo > EXCITED_RANGE
         })
         .collect();
-    if excited.is_empty() {
-        return Err(Error::InvalidInput(
-            "no joint moves in this dataset: nothing to identify".into(),
-        ));
-    }
     let p_joint = match &log.motor_power_w {
         Some(p) => (0..t.len())
             .flat_map(|k| (0..n).map(move |i| p[i][k]))

@@ -24,6 +24,7 @@ use serde::Serialize;
 
 use crate::dynamics::base_params::BaseParams;
 use crate::dynamics::regressor::regressor;
+use crate::dynamics::rnea::rnea;
 use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::kinematics::fk::link_poses;
@@ -416,8 +417,57 @@ pub fn identifiable_columns(
     Ok(base.independent().to_vec())
 }
 
-/// Candidate poses drawn by [`rest_pose`] when the centre pose violates the workspace.
+/// Candidate poses drawn by [`rest_pose`] when the centre pose violates the workspace, and
+/// by [`standby_pose`].
 const REST_CANDIDATES: usize = 4000;
+
+/// Each joint's range within its position limits less `margin` (rad), clipped to
+/// [-pi, pi]. Errors when a range is not wider than `2 margin`.
+fn rest_ranges(robot: &Robot, margin: f64) -> Result<Vec<(f64, f64)>> {
+    robot
+        .joints()
+        .iter()
+        .map(|j| {
+            let lo = (j.limits.lower + margin).max(-std::f64::consts::PI);
+            let hi = (j.limits.upper - margin).min(std::f64::consts::PI);
+            if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
+                return Err(Error::InvalidInput(format!(
+                    "joint '{}': no rest pose {margin} rad inside its limits [{}, {}] rad",
+                    j.name, j.limits.lower, j.limits.upper
+                )));
+            }
+            Ok((lo, hi))
+        })
+        .collect()
+}
+
+/// Whether pose `q` keeps the flange and the wrist (the origin of the second-to-last link
+/// frame) above `floor_z` (m) and `base_radius` (m) from the base z axis, with 0.02 m to
+/// spare. `poses`: scratch of one pose per link.
+/// With `column_top` (m), the base column ends there: a point higher than that by
+/// `base_radius` may be over the base axis (an arm held upright).
+fn clear_of_workspace(
+    robot: &Robot,
+    q: &[f64],
+    floor_z: f64,
+    base_radius: f64,
+    column_top: Option<f64>,
+    poses: &mut [nalgebra::Isometry3<f64>],
+) -> bool {
+    let n = robot.dof();
+    link_poses(robot, q, poses);
+    let flange = poses[n - 1] * robot.flange();
+    let above_column = |z: f64| column_top.is_some_and(|top| z >= top + base_radius);
+    [
+        poses[n.saturating_sub(2)].translation.vector,
+        flange.translation.vector,
+    ]
+    .iter()
+    .all(|p| {
+        p.z >= floor_z + 0.02
+            && (above_column(p.z) || Vector3::new(p.x, p.y, 0.0).norm() >= base_radius + 0.02)
+    })
+}
 
 /// A rest pose for an excitation of `robot`, derived from its URDF: every joint at 0 clamped
 /// into its position limits less `margin` (rad), or, when the flange or the wrist (the origin
@@ -429,34 +479,13 @@ const REST_CANDIDATES: usize = 4000;
 /// drawn pose satisfies the workspace.
 pub fn rest_pose(robot: &Robot, margin: f64, floor_z: f64, base_radius: f64) -> Result<Vec<f64>> {
     let n = robot.dof();
-    let mut ranges = Vec::with_capacity(n);
-    for j in robot.joints() {
-        let lo = (j.limits.lower + margin).max(-std::f64::consts::PI);
-        let hi = (j.limits.upper - margin).min(std::f64::consts::PI);
-        if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
-            return Err(Error::InvalidInput(format!(
-                "joint '{}': no rest pose {margin} rad inside its limits [{}, {}] rad",
-                j.name, j.limits.lower, j.limits.upper
-            )));
-        }
-        ranges.push((lo, hi));
-    }
+    let ranges = rest_ranges(robot, margin)?;
     let centre: Vec<f64> = ranges
         .iter()
         .map(|&(lo, hi)| 0.0_f64.clamp(lo, hi))
         .collect();
     let mut poses = vec![nalgebra::Isometry3::identity(); n];
-    let mut clear = |q: &[f64]| {
-        link_poses(robot, q, &mut poses);
-        let flange = poses[n - 1] * robot.flange();
-        [
-            poses[n.saturating_sub(2)].translation.vector,
-            flange.translation.vector,
-        ]
-        .iter()
-        .all(|p| p.z >= floor_z + 0.02 && Vector3::new(p.x, p.y, 0.0).norm() >= base_radius + 0.02)
-    };
-    if clear(&centre) {
+    if clear_of_workspace(robot, &centre, floor_z, base_radius, None, &mut poses) {
         return Ok(centre);
     }
     let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -467,7 +496,9 @@ pub fn rest_pose(robot: &Robot, margin: f64, floor_z: f64, base_radius: f64) -> 
             .map(|&(lo, hi)| rng.random_range(lo..hi))
             .collect();
         let d: f64 = q.iter().zip(&centre).map(|(a, b)| (a - b).powi(2)).sum();
-        if best.as_ref().is_none_or(|(bd, _)| d < *bd) && clear(&q) {
+        if best.as_ref().is_none_or(|(bd, _)| d < *bd)
+            && clear_of_workspace(robot, &q, floor_z, base_radius, None, &mut poses)
+        {
             best = Some((d, q));
         }
     }
@@ -477,6 +508,98 @@ pub fn rest_pose(robot: &Robot, margin: f64, floor_z: f64, base_radius: f64) -> 
              and {base_radius} m from the base axis; give a rest pose"
         ))
     })
+}
+
+/// Coordinate-search passes of [`standby_pose`] after the random draw.
+const STANDBY_PASSES: usize = 40;
+
+/// The pose at which a robot at rest draws its standby power and next to no holding current:
+/// within the position limits less `margin` (rad) and the workspace of [`rest_pose`]
+/// (`floor_z`, `base_radius`, m; the wrist and flange may be over the base axis when
+/// `base_radius` above the shoulder, the origin of the second link's frame: an arm held
+/// upright), the pose that minimises the URDF's gravity torques relative
+/// to each joint's effort limit (1 N m for all when the URDF lacks one),
+/// `sum_i (tau_g,i / effort_i)^2` (the holding copper loss
+/// `c_i tau_i^2` when, as usual, `c_i` falls with the square of the motor's torque rating).
+/// Seeded random draws, then a coordinate search (steps halved from 0.2 rad to 1e-4 rad).
+/// Returns the pose (rad) and its gravity torques (N m).
+///
+/// A log of the robot held there pins the identified standby power, which the copper loss of
+/// moving otherwise trades against ([`crate::validation::idset`]).
+///
+/// Errors: those of [`rest_pose`]'s ranges, or no drawn pose clear of the workspace.
+pub fn standby_pose(
+    robot: &Robot,
+    margin: f64,
+    floor_z: f64,
+    base_radius: f64,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = robot.dof();
+    let ranges = rest_ranges(robot, margin)?;
+    // Without effort limits in the URDF, every joint alike.
+    let effort: Vec<f64> = if robot.joints().iter().all(|j| j.limits.effort.is_some()) {
+        robot
+            .joints()
+            .iter()
+            .map(|j| j.limits.effort.unwrap_or(1.0).max(1e-9))
+            .collect()
+    } else {
+        vec![1.0; n]
+    };
+    let mut ws = Workspace::new(robot);
+    let mut poses = vec![nalgebra::Isometry3::identity(); n];
+    let zero = vec![0.0; n];
+    let mut tau = vec![0.0; n];
+    // The base column ends at the shoulder: the origin of the second link's frame.
+    link_poses(robot, &vec![0.0; n], &mut poses);
+    let shoulder = poses[1.min(n - 1)].translation.vector.z;
+    let mut cost = |q: &[f64], tau: &mut [f64]| -> f64 {
+        if !clear_of_workspace(robot, q, floor_z, base_radius, Some(shoulder), &mut poses) {
+            return f64::INFINITY;
+        }
+        rnea(robot, &mut ws, q, &zero, &zero, None, tau);
+        tau.iter().zip(&effort).map(|(t, e)| (t / e).powi(2)).sum()
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for _ in 0..REST_CANDIDATES {
+        let q: Vec<f64> = ranges
+            .iter()
+            .map(|&(lo, hi)| rng.random_range(lo..hi))
+            .collect();
+        let c = cost(&q, &mut tau);
+        if c.is_finite() && best.as_ref().is_none_or(|(bc, _)| c < *bc) {
+            best = Some((c, q));
+        }
+    }
+    let (mut best_cost, mut q) = best.ok_or_else(|| {
+        Error::InvalidInput(format!(
+            "no pose of {REST_CANDIDATES} drawn keeps the flange and wrist above z = {floor_z} m \
+             and {base_radius} m from the base axis"
+        ))
+    })?;
+    let mut step = 0.2;
+    for _ in 0..STANDBY_PASSES {
+        let mut improved = false;
+        for i in 0..n {
+            for dir in [-1.0, 1.0] {
+                let mut trial = q.clone();
+                trial[i] = (q[i] + dir * step).clamp(ranges[i].0, ranges[i].1);
+                let c = cost(&trial, &mut tau);
+                if c < best_cost {
+                    (best_cost, q, improved) = (c, trial, true);
+                }
+            }
+        }
+        if !improved {
+            step *= 0.5;
+            if step < 1e-4 {
+                break;
+            }
+        }
+    }
+    cost(&q, &mut tau);
+    Ok((q, tau))
 }
 
 /// Design an excitation trajectory for `robot`.

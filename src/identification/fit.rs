@@ -87,8 +87,9 @@ impl Samples {
     /// motion, centre and payload the fit did not see, as a prediction meets), else one block
     /// of every log.
     ///
-    /// Errors: logs of different power signals, a model of another robot, a payload that is
-    /// not physical.
+    /// Errors: logs of different power signals, no log that moves a joint
+    /// ([`ensure_motion`](crate::identification::data::ensure_motion)), a model of another
+    /// robot, a payload that is not physical.
     pub fn new(
         robot: &Robot,
         model: &PowerModel,
@@ -100,6 +101,7 @@ impl Samples {
         let first = logs
             .first()
             .ok_or_else(|| Error::InvalidInput("no logs to identify from".into()))?;
+        crate::identification::data::ensure_motion(logs)?;
         if logs
             .iter()
             .any(|p| p.signal.clipped() != first.signal.clipped())

@@ -22,7 +22,7 @@ fn heldout(w: &mut String, r: &Results) {
         w,
         "The model `{}` was identified from {} excitations over the workspace carrying known \
          loads of {} kg, designed together ({} of their stacked 10 Hz power regressor, {} \
-         rounds, condition number {:.0}, {:.1} s), with the estimator chosen by \
+         rounds, condition number {:.0}, {:.1} s){}, with the estimator chosen by \
          cross-validation (leave one run out; mean-power error per candidate: {}; weighting \
          `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
          95 % intervals add to the parameter covariance a structure error fitted to the \
@@ -37,6 +37,7 @@ fn heldout(w: &mut String, r: &Results) {
         m.excitation_conds.len(),
         m.loads_kg
             .iter()
+            .take(m.excitation_conds.len())
             .map(|l| format!("{l}"))
             .collect::<Vec<_>>()
             .join(", "),
@@ -44,6 +45,18 @@ fn heldout(w: &mut String, r: &Results) {
         m.design.rounds,
         m.design.stacked_cond,
         m.design.wall_s,
+        m.standby.as_ref().map_or(String::new(), |s| format!(
+            ", and a rest of the unloaded robot at the pose of least gravity torque ({} rad; \
+             the URDF's gravity torques at most {:.2} N m), whose power pins the standby",
+            s.pose_rad
+                .iter()
+                .map(|q| format!("{q:.2}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            s.gravity_torque_nm
+                .iter()
+                .fold(0.0_f64, |a, t| a.max(t.abs()))
+        )),
         m.cv.iter()
             .map(|c| format!("{} {:.3} W", c.estimator.name(), c.mean_power_rms_w))
             .collect::<Vec<_>>()

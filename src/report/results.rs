@@ -71,6 +71,9 @@ pub struct ModelInfo {
     pub excitation_conds: Vec<f64>,
     /// Known load carried in each identification run, kg.
     pub loads_kg: Vec<f64>,
+    /// The standby rest among those runs (the last): its pose, rad, and the URDF's gravity
+    /// torques there, N m; `null` without one.
+    pub standby: Option<StandbyInfo>,
     /// RMS of the final fit's power residual, W.
     #[serde(rename = "residual_rms_W")]
     pub residual_rms_w: f64,
@@ -82,6 +85,16 @@ pub struct ModelInfo {
     pub parameters: usize,
     /// Identified against true base parameters (truth only scores).
     pub table2: Vec<ParamRow>,
+}
+
+/// The standby rest of the identification set.
+#[derive(Debug, Clone, Serialize)]
+pub struct StandbyInfo {
+    /// Pose held, rad.
+    pub pose_rad: Vec<f64>,
+    /// Gravity torques of the URDF there, N m.
+    #[serde(rename = "gravity_torque_Nm")]
+    pub gravity_torque_nm: Vec<f64>,
 }
 
 /// The design of the identification set.
@@ -240,6 +253,14 @@ impl Results {
                             .fold(0.0, |m, p| m + p.inertia.mass)
                     })
                     .collect(),
+                standby: outcome
+                    .idset
+                    .standby
+                    .as_ref()
+                    .map(|(pose, tau)| StandbyInfo {
+                        pose_rad: pose.clone(),
+                        gravity_torque_nm: tau.clone(),
+                    }),
                 residual_rms_w: outcome.idset.selection.fit.estimate.residual_rms,
                 well_determined: well.len(),
                 well_determined_max_error_pct: well
