@@ -148,11 +148,12 @@ pub struct IdentifyArgs {
     /// [default: 0.05 for auto, total and pmsm; 0 for the others].
     #[arg(long, value_name = "RAD_S")]
     min_speed: Option<f64>,
-    /// Weighted least squares for --method auto, total and pmsm: `per-log` weighs each log by
-    /// the inverse of its residual variance, `power-level` each sample by the inverse of a
-    /// variance growing with the predicted active power (both iterated from the residuals).
-    #[arg(long, value_enum, default_value = "none")]
-    weighting: WeightingArg,
+    /// Weighted least squares for --method auto, total and pmsm: `none` (ordinary),
+    /// `per-log` weighs each log by the inverse of its residual variance, `power-level` each
+    /// sample by the inverse of a variance growing with the predicted active power (both
+    /// iterated from the residuals) [default: power-level].
+    #[arg(long, value_enum)]
+    weighting: Option<WeightingArg>,
     /// Keep the least-squares estimate as it is. By default (--method auto, total and pmsm)
     /// the model is made physically consistent inside identification: positive-definite
     /// pseudo-inertias, non-negative friction, rotor inertia and losses, nearest to the
@@ -242,7 +243,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    if !fitted && (args.unconstrained || args.weighting != WeightingArg::None) {
+    if !fitted && (args.unconstrained || args.weighting.is_some()) {
         bail!(
             "--weighting and --unconstrained apply to --method auto, total and pmsm, not {:?}",
             args.method
@@ -269,7 +270,9 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         let opts = FitOptions {
             min_speed,
             candidates,
-            weighting: args.weighting.into(),
+            weighting: args
+                .weighting
+                .map_or(FitOptions::default().weighting, Into::into),
             consistent: !args.unconstrained,
             ..FitOptions::default()
         };

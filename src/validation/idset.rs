@@ -101,10 +101,7 @@ impl IdSetOptions {
             rounds: 2,
             max_evals: if quick { 300 } else { 800 },
             seed: 101,
-            fit: FitOptions {
-                weighting: Weighting::PowerLevel,
-                ..FitOptions::default()
-            },
+            fit: FitOptions::default(),
         };
         if quick {
             o.centres.truncate(4);
