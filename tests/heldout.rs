@@ -216,19 +216,27 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
         "[[event]]\nt_s = 0.0\npayload = \"tool+load_4kg\"\n",
     )
     .unwrap();
-    let predict = |extra: &[&str]| -> serde_json::Value {
+    let call = |extra: &[&str]| {
         let mut args = vec![
             "predict",
             "--model",
             model_path.to_str().unwrap(),
             "--data",
             data.to_str().unwrap(),
-            "--json",
         ];
         args.extend_from_slice(extra);
-        let (code, out, err) = common::run(&args);
+        common::run(&args)
+    };
+    let predict = |extra: &[&str]| -> serde_json::Value {
+        let (code, out, err) = call(&[extra, &["--json"]].concat());
         assert_eq!(code, 0, "{err}");
         serde_json::from_str(&out).unwrap()
+    };
+    // A call that must fail: its error message.
+    let refused = |extra: &[&str]| -> String {
+        let (code, _, err) = call(extra);
+        assert_ne!(code, 0, "predict {extra:?} succeeded");
+        err
     };
     let recorded = predict(&[]);
     let given = predict(&["--payload", "tool", "--payload", "load_4kg"]);
@@ -270,16 +278,9 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
         (rmse - printed).abs() < 1e-9 && rmse < 3.0,
         "{rmse} / {printed} W"
     );
-    let (code, _, err) = common::run(&[
-        "predict",
-        "--model",
-        model_path.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--power-out",
-        dir.join("no_such_dir/power.csv").to_str().unwrap(),
-    ]);
-    assert!(code != 0 && err.contains("no_such_dir"), "{err}");
+    let missing = dir.join("no_such_dir/power.csv");
+    let err = refused(&["--power-out", missing.to_str().unwrap()]);
+    assert!(err.contains("no_such_dir"), "{err}");
     // The log and the model's power along its route in Rerun: the robot and the measured
     // power at the log's samples, the prediction at 50 Hz between them.
     #[cfg(feature = "viz")]
@@ -312,29 +313,11 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
     assert_ne!(e(&quartic), e(&recorded));
     let q_err = quartic["error_vs_simulated_pct"].as_f64().unwrap();
     assert!(q_err.abs() <= 3.0, "{q_err} %");
-    let (code, _, err) = common::run(&[
-        "predict",
-        "--model",
-        model_path.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--smoothing-window",
-        "4",
-    ]);
-    assert_ne!(code, 0);
+    let err = refused(&["--smoothing-window", "4"]);
     assert!(err.contains("odd window"), "{err}");
     // A malformed timeline is a clear error naming the file.
     std::fs::write(&timeline, "[[event]]\nt_s = 1.0\npayload = \"anvil\"\n").unwrap();
-    let (code, _, err) = common::run(&[
-        "predict",
-        "--model",
-        model_path.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--payload-events",
-        timeline.to_str().unwrap(),
-    ]);
-    assert_ne!(code, 0);
+    let err = refused(&["--payload-events", timeline.to_str().unwrap()]);
     assert!(
         err.contains("events.toml") && err.contains("anvil"),
         "{err}"
@@ -347,14 +330,7 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
         serde_json::to_string(&serde_json::json!({ "model": bad })).unwrap(),
     )
     .unwrap();
-    let (code, _, err) = common::run(&[
-        "predict",
-        "--model",
-        model_path.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
-    assert_ne!(code, 0);
+    let err = refused(&[]);
     assert!(err.contains("base parameters"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

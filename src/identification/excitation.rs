@@ -441,6 +441,14 @@ fn rest_ranges(robot: &Robot, margin: f64) -> Result<Vec<(f64, f64)>> {
         .collect()
 }
 
+/// A pose drawn uniformly within `ranges` (rad, one `(lo, hi)` per joint).
+fn random_pose(rng: &mut ChaCha8Rng, ranges: &[(f64, f64)]) -> Vec<f64> {
+    ranges
+        .iter()
+        .map(|&(lo, hi)| rng.random_range(lo..hi))
+        .collect()
+}
+
 /// Whether pose `q` keeps the flange and the wrist (the origin of the second-to-last link
 /// frame) above `floor_z` (m) and `base_radius` (m) from the base z axis, with 0.02 m to
 /// spare. `poses`: scratch of one pose per link.
@@ -491,10 +499,7 @@ pub fn rest_pose(robot: &Robot, margin: f64, floor_z: f64, base_radius: f64) -> 
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let mut best: Option<(f64, Vec<f64>)> = None;
     for _ in 0..REST_CANDIDATES {
-        let q: Vec<f64> = ranges
-            .iter()
-            .map(|&(lo, hi)| rng.random_range(lo..hi))
-            .collect();
+        let q = random_pose(&mut rng, &ranges);
         let d: f64 = q.iter().zip(&centre).map(|(a, b)| (a - b).powi(2)).sum();
         if best.as_ref().is_none_or(|(bd, _)| d < *bd)
             && clear_of_workspace(robot, &q, floor_z, base_radius, None, &mut poses)
@@ -563,10 +568,7 @@ pub fn standby_pose(
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let mut best: Option<(f64, Vec<f64>)> = None;
     for _ in 0..REST_CANDIDATES {
-        let q: Vec<f64> = ranges
-            .iter()
-            .map(|&(lo, hi)| rng.random_range(lo..hi))
-            .collect();
+        let q = random_pose(&mut rng, &ranges);
         let c = cost(&q, &mut tau);
         if c.is_finite() && best.as_ref().is_none_or(|(bc, _)| c < *bc) {
             best = Some((c, q));

@@ -896,24 +896,7 @@ pub fn identify_logs(
         )));
     }
     for log in logs {
-        if log.dof() != robot.dof() {
-            return Err(Error::InvalidInput(format!(
-                "{}: {} joints, robot '{}' has {}",
-                log.source,
-                log.dof(),
-                robot.name(),
-                robot.dof()
-            )));
-        }
-        if let Some(name) = &log.robot
-            && name != robot.name()
-        {
-            return Err(Error::InvalidInput(format!(
-                "{} is a log of robot '{name}', not '{}'",
-                log.source,
-                robot.name()
-            )));
-        }
+        log.check_robot(robot)?;
     }
     let prepared = logs
         .iter()

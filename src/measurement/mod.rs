@@ -21,6 +21,7 @@ pub mod segments;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result, ensure_finite};
+use crate::model::Robot;
 use crate::model::payload::PayloadEvent;
 
 /// Where the logged power was measured, which decides the structure of the power model.
@@ -117,6 +118,30 @@ impl Log {
             (Some(a), Some(b)) => b - a,
             _ => 0.0,
         }
+    }
+
+    /// Errors unless the log is of `robot`: its joint count, and its robot name when it
+    /// states one.
+    pub fn check_robot(&self, robot: &Robot) -> Result<()> {
+        if self.dof() != robot.dof() {
+            return Err(Error::InvalidInput(format!(
+                "{}: {} joints, robot '{}' has {}",
+                self.source,
+                self.dof(),
+                robot.name(),
+                robot.dof()
+            )));
+        }
+        if let Some(name) = &self.robot
+            && name != robot.name()
+        {
+            return Err(Error::InvalidInput(format!(
+                "{} is a log of robot '{name}', not '{}'",
+                self.source,
+                robot.name()
+            )));
+        }
+        Ok(())
     }
 
     /// Check lengths, finiteness and increasing times; errors name the log and the column.

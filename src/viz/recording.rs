@@ -138,18 +138,10 @@ impl Viz {
     /// when logged, each motor's (`power/joint{i}/measured_W`).
     ///
     /// Fails with [`Error::InvalidInput`] when the log is not valid ([`Log::validate`]) or
-    /// its joint count is not the robot's.
+    /// not of the robot ([`Log::check_robot`]).
     pub fn log_measurement(&self, robot: &Robot, log: &Log, prefix: &str) -> Result<()> {
         log.validate()?;
-        if log.dof() != robot.dof() {
-            return Err(Error::InvalidInput(format!(
-                "{}: {} joints, robot '{}' has {}",
-                log.source,
-                log.dof(),
-                robot.name(),
-                robot.dof()
-            )));
-        }
+        log.check_robot(robot)?;
         self.log_geometry(robot, prefix)?;
         let n = robot.dof();
         let mut q = vec![0.0; n];
