@@ -292,7 +292,11 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
                 c.mahalanobis, c.max_change_sigma
             );
         }
-        (sel.fit.model, vec![sel.fit.estimate], sel.scores)
+        (
+            sel.fit.model.clone(),
+            vec![sel.fit.free_estimate()],
+            sel.scores,
+        )
     } else {
         let prepared: Vec<Prepared> = logs
             .iter()

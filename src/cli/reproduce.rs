@@ -138,7 +138,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let model_json = serde_json::json!({
         "method": outcome.model_name(),
         "model": &outcome.model,
-        "estimates": [&outcome.idset.selection.fit.estimate],
+        "estimates": [outcome.idset.selection.fit.free_estimate()],
         "cross_validation": &outcome.idset.selection.scores,
     });
     powertwin::io::write_atomic(

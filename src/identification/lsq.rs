@@ -69,7 +69,11 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
             unidentifiable: format!("{} (not excited at all)", zero.join(", ")),
         });
     }
-    let scaled = DMatrix::from_fn(m, p, |r, c| a[(r, c)] / norms[c]);
+    // A = Q R: the p x p factor has A's singular values and right singular vectors, and
+    // (Q^T y)[..p] the same least-squares solution, at a fraction of an SVD of all rows.
+    let (r, qty) = reduce(a, Some(y));
+    let qty = qty.unwrap_or_else(|| y.clone());
+    let scaled = DMatrix::from_fn(r.nrows(), p, |i, c| r[(i, c)] / norms[c]);
     let svd = scaled.clone().svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
@@ -90,7 +94,10 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
         });
     }
     let x_scaled = svd
-        .solve(&DMatrix::from_column_slice(m, 1, y.as_slice()), 0.0)
+        .solve(
+            &DMatrix::from_column_slice(qty.len(), 1, qty.as_slice()),
+            0.0,
+        )
         .map_err(|e| Error::InvalidInput(format!("least squares failed: {e}")))?;
     let values: Vec<f64> = (0..p).map(|c| x_scaled[(c, 0)] / norms[c]).collect();
     let resid = a * DVector::from_column_slice(&values) - y;
@@ -123,6 +130,28 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
         rows: m,
         covariance,
     })
+}
+
+/// The triangular factor `R` (`p x p`) of the thin QR decomposition `A = Q R` of a tall
+/// `m x p` matrix, and `Q^T y` cut to its first `p` rows when `y` is given. `R` has the
+/// singular values and right singular vectors of `A` (so its condition number and
+/// `(A^T A)^-1 = (R^T R)^-1`), and `R x = (Q^T y)[..p]` is the least-squares solution of
+/// `A x = y`. A matrix with no more rows than columns is returned as it is (with `y`).
+pub(crate) fn reduce(
+    a: &DMatrix<f64>,
+    y: Option<&DVector<f64>>,
+) -> (DMatrix<f64>, Option<DVector<f64>>) {
+    let (m, p) = a.shape();
+    if m <= p {
+        return (a.clone(), y.cloned());
+    }
+    let qr = a.clone().qr();
+    let qty = y.map(|y| {
+        let mut v = y.clone();
+        qr.q_tr_mul(&mut v);
+        v.rows(0, p).into_owned()
+    });
+    (qr.r(), qty)
 }
 
 /// Relative standard deviations `std / |value|` (infinite for a value of 0).

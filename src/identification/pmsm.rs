@@ -12,7 +12,8 @@ use crate::identification::states::States;
 use crate::model::Robot;
 
 /// Identify `model` (filled in place, not efficiency-scaled) from total power `p` (W) at the
-/// samples of `states`.
+/// samples of `states`. The estimate holds the parameters fitted: base parameters, the
+/// copper coefficients the data tell from zero (the others are held at zero), the standby.
 pub fn identify(
     robot: &Robot,
     model: &mut PowerModel,
@@ -21,6 +22,7 @@ pub fn identify(
 ) -> Result<Estimate> {
     let samples = Samples::from_states(robot, model, states, p)?;
     let f = fit(model, &samples, Estimator::Pmsm, Weighting::None, &|_| true)?;
+    let estimate = f.free_estimate();
     *model = f.model;
-    Ok(f.estimate)
+    Ok(estimate)
 }

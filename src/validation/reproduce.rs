@@ -149,7 +149,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         rig.robot,
         rig.drive,
         &model,
-        &[&idset.selection.fit.estimate],
+        &[&idset.selection.fit.free_estimate()],
     )?;
     lap("identification set: joint design, twin runs, cross-validated fit");
     let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, progress)?;
