@@ -389,8 +389,6 @@ fn pmsm_fit_converges_with_a_copper_coefficient_on_its_bound() {
     use powertwin::dynamics::{ParamLayout, Workspace};
     use powertwin::identification::model::PowerModel;
     use powertwin::identification::pmsm;
-    use powertwin::identification::states::States;
-    use rand_distr::{Distribution, StandardNormal};
     let robot = common::irb1200();
     let n = robot.dof();
     let layout = ParamLayout::new(&robot, true, true);
@@ -402,29 +400,12 @@ fn pmsm_fit_converges_with_a_copper_coefficient_on_its_bound() {
         .unwrap();
     truth.copper = vec![0.005, 0.002, 0.005, -0.2, 0.2, 1.0];
     truth.constant[0] = 20.0;
-    let mut rng = common::rng(7);
     let count = 800;
-    let mut states = States {
-        t: (0..count).map(|k| k as f64 * 0.01).collect(),
-        q: vec![Vec::new(); n],
-        dq: vec![Vec::new(); n],
-        ddq: vec![Vec::new(); n],
-    };
+    let (states, power) = common::model_power_samples(&robot, &truth, count, (7, 8), |_| 0.5);
     let (mut ws, mut w) = (
         Workspace::new(&robot),
         nalgebra::DMatrix::zeros(n, layout.len()),
     );
-    let mut power = Vec::new();
-    for _ in 0..count {
-        let (q, dq, ddq) = common::random_state(&robot, &mut rng);
-        let noise: f64 = StandardNormal.sample(&mut rng);
-        power.push(truth.power(&robot, &mut ws, &mut w, &q, &dq, &ddq) + 0.5 * noise);
-        for i in 0..n {
-            states.q[i].push(q[i]);
-            states.dq[i].push(dq[i]);
-            states.ddq[i].push(ddq[i]);
-        }
-    }
     let mut model = template.clone();
     pmsm::identify(&robot, &mut model, &states, &power).unwrap();
     println!("copper {:?}", model.copper);

@@ -14,7 +14,6 @@ use powertwin::identification::fit::{
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::states::States;
 use powertwin::model::payload::Payload;
-use powertwin::model::sampling::StateSampler;
 use powertwin::trajectory::limits::{IRB1200_ACCEL_LIMITS, check_limits};
 use powertwin::twin::Fidelity;
 use powertwin::twin::sensor::NoiseSettings;
@@ -196,33 +195,7 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
 /// Random states of the IRB 1200 and their power under the true drives with noise whose
 /// standard deviation is `0.2 W + 2 %` of the active power: `(states, power)`.
 fn heteroscedastic(robot: &powertwin::Robot, model: &PowerModel) -> (States, Vec<f64>) {
-    let n = robot.dof();
-    let mut sampler = StateSampler::new(robot, 1.5, 4.0, 11).unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
-    let count = 1500;
-    let mut s = States {
-        t: (0..count).map(|k| k as f64 * 0.1).collect(),
-        q: vec![Vec::new(); n],
-        dq: vec![Vec::new(); n],
-        ddq: vec![Vec::new(); n],
-    };
-    let mut ws = powertwin::dynamics::Workspace::new(robot);
-    let mut w = nalgebra::DMatrix::zeros(n, model.layout.len());
-    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let standby: f64 = model.constant.iter().sum();
-    let mut y = Vec::with_capacity(count);
-    for _ in 0..count {
-        sampler.state(&mut q, &mut dq, &mut ddq);
-        for i in 0..n {
-            s.q[i].push(q[i]);
-            s.dq[i].push(dq[i]);
-            s.ddq[i].push(ddq[i]);
-        }
-        let p = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
-        let z: f64 = StandardNormal.sample(&mut rng);
-        y.push(p + (0.2 + 0.02 * (p - standby).abs()) * z);
-    }
-    (s, y)
+    common::model_power_samples(robot, model, 1500, (11, 12), |active| 0.2 + 0.02 * active)
 }
 
 #[test]

@@ -132,3 +132,44 @@ pub fn irb1200_rig<'a>(
         },
     }
 }
+
+/// `count` random states of `robot` (velocities up to 1.5 rad/s, accelerations up to
+/// 4 rad/s^2, from state seed `state_seed`) 0.1 s apart, with the power `model` predicts at
+/// each plus Gaussian noise (seed `noise_seed`) of standard deviation `sd(active)` W, where
+/// `active` is the predicted power above the model's standby: `(states, power)`.
+pub fn model_power_samples(
+    robot: &Robot,
+    model: &powertwin::identification::model::PowerModel,
+    count: usize,
+    (state_seed, noise_seed): (u64, u64),
+    sd: impl Fn(f64) -> f64,
+) -> (powertwin::identification::states::States, Vec<f64>) {
+    use rand_distr::{Distribution, StandardNormal};
+    let n = robot.dof();
+    let mut sampler =
+        powertwin::model::sampling::StateSampler::new(robot, 1.5, 4.0, state_seed).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(noise_seed);
+    let mut s = powertwin::identification::states::States {
+        t: (0..count).map(|k| k as f64 * 0.1).collect(),
+        q: vec![Vec::new(); n],
+        dq: vec![Vec::new(); n],
+        ddq: vec![Vec::new(); n],
+    };
+    let mut ws = powertwin::dynamics::Workspace::new(robot);
+    let mut w = nalgebra::DMatrix::zeros(n, model.layout.len());
+    let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let standby: f64 = model.constant.iter().sum();
+    let mut y = Vec::with_capacity(count);
+    for _ in 0..count {
+        sampler.state(&mut q, &mut dq, &mut ddq);
+        for i in 0..n {
+            s.q[i].push(q[i]);
+            s.dq[i].push(dq[i]);
+            s.ddq[i].push(ddq[i]);
+        }
+        let p = model.power(robot, &mut ws, &mut w, &q, &dq, &ddq);
+        let z: f64 = StandardNormal.sample(&mut rng);
+        y.push(p + sd((p - standby).abs()) * z);
+    }
+    (s, y)
+}
