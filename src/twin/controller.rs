@@ -2,7 +2,7 @@
 //!
 //! `a = ddq_ref + kd (dq_ref - dq) + kp (q_ref - q)` and
 //! `tau = RNEA_nominal(q, dq, a) + Ia a + fv dq + fc sign(dq_ref)` (a reference slower than
-//! [`REF_REST_SPEED`] is at rest: no friction feedforward),
+//! [`crate::dynamics::REST_SPEED_EPS`] is at rest: no friction feedforward),
 //! clipped to the joint effort limits when the model has them. The nominal model is the true
 //! one by default; [`perturbed`] makes the imperfect model a real controller would have.
 
@@ -14,17 +14,6 @@ use crate::dynamics::rnea::rnea;
 use crate::dynamics::{DriveTerms, Workspace, sign};
 use crate::error::Result;
 use crate::model::{RigidInertia, Robot};
-
-/// Reference speed (rad/s) below which the friction feedforward takes the reference as at
-/// rest. A reference that starts from rest has a speed of rounding-error size (1e-17 rad/s)
-/// at its first instant, whose sign would otherwise switch the full Coulomb torque on, in
-/// a direction chosen by the rounding.
-pub const REF_REST_SPEED: f64 = 1e-9;
-
-/// `sign(x)`, and 0 where `|x| <= eps`.
-fn sign_beyond(x: f64, eps: f64) -> f64 {
-    if x.abs() <= eps { 0.0 } else { sign(x) }
-}
 
 /// PD gains on the tracking error.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -143,7 +132,7 @@ impl Controller {
             let t = &self.terms;
             tau[i] += t.rotor_inertia[i] * self.a[i]
                 + t.viscous[i] * dq[i]
-                + t.coulomb[i] * sign_beyond(dq_ref[i], REF_REST_SPEED);
+                + t.coulomb[i] * sign(dq_ref[i]);
             if let Some(limit) = self.effort[i]
                 && tau[i].abs() > limit
             {
