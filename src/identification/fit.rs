@@ -501,7 +501,9 @@ fn fit_weighted(
     z[np - 1] = est.values[nb];
     let (estimate, covariance) = match estimator {
         Estimator::Total => {
-            let cov_lin = covariance(&a, est.residual_rms.powi(2) * lin.len() as f64, &est)?;
+            let x = DVector::from_column_slice(&est.values);
+            let logs: Vec<usize> = lin.iter().map(|&(m, _)| s.piece[m].0).collect();
+            let cov_lin = covariance(&a, &(&y - &a * x), &logs)?;
             let mut cov = DMatrix::zeros(np, np);
             let map = |k: usize| if k < nb { k } else { np - 1 };
             for r in 0..=nb {
@@ -585,30 +587,77 @@ impl Fit {
     }
 }
 
-/// `s2_total / (m - p) * (A^T A)^-1`, with `s2_total` the residual sum of squares, computed
-/// with the columns scaled to unit norm.
-fn covariance(a: &DMatrix<f64>, rss: f64, est: &Estimate) -> Result<DMatrix<f64>> {
+/// Covariance of the least-squares estimate from the (weighted) design `a` and its residuals
+/// `r` (one per row), computed with the columns scaled to unit norm. Rows of one log
+/// (`log[row]`, in time order) are neighbours in time: their residuals are correlated (the
+/// 10 Hz route's differentiation error and any structure error change slowly), so the plain
+/// `s^2 (A^T A)^-1` understates the spread of the estimate. This is the heteroscedasticity
+/// and autocorrelation consistent (HAC) sandwich `B S B` with `B = (A^T A)^-1` and `S` the
+/// Bartlett-weighted sum of the score products `g_t g_{t-l}^T` (`g_t = a_t r_t`) within each
+/// log up to lag `L` (Newey and West 1987), `L` from the pooled lag-1 autocorrelation `rho` of
+/// the residuals by Andrews' (1991) AR(1) plug-in `1.1447 (alpha T)^(1/3)`,
+/// `alpha = 4 rho^2 / ((1 - rho)^2 (1 + rho)^2)`, `T` the mean rows per log; times
+/// `m / (m - p)`. With white residuals (`rho` = 0) it is the plain sandwich.
+fn covariance(a: &DMatrix<f64>, r: &DVector<f64>, log: &[usize]) -> Result<DMatrix<f64>> {
     let (m, p) = a.shape();
+    debug_assert_eq!(r.len(), m);
+    debug_assert_eq!(log.len(), m);
     let norms: Vec<f64> = a.column_iter().map(|c| c.norm().max(1e-300)).collect();
     // The triangular factor has A's singular values and right singular vectors.
-    let (r, _) = crate::identification::lsq::reduce(a, None);
-    let scaled = DMatrix::from_fn(r.nrows(), p, |i, c| r[(i, c)] / norms[c]);
+    let (rf, _) = crate::identification::lsq::reduce(a, None);
+    let scaled = DMatrix::from_fn(rf.nrows(), p, |i, c| rf[(i, c)] / norms[c]);
     let svd = scaled.svd(false, true);
     let v_t = svd
         .v_t
         .ok_or_else(|| Error::InvalidInput("SVD without V".into()))?;
-    let s2 = rss / (m.saturating_sub(p)).max(1) as f64;
-    let mut cov = DMatrix::zeros(p, p);
-    for r in 0..p {
-        for c in 0..p {
-            let v: f64 = (0..p)
-                .map(|k| v_t[(k, r)] * v_t[(k, c)] / svd.singular_values[k].powi(2))
-                .sum();
-            cov[(r, c)] = s2 * v / (norms[r] * norms[c]);
+    // (A_s^T A_s)^-1 of the scaled columns.
+    let bread = DMatrix::from_fn(p, p, |i, j| {
+        (0..p)
+            .map(|k| v_t[(k, i)] * v_t[(k, j)] / svd.singular_values[k].powi(2))
+            .sum::<f64>()
+    });
+    let lag = hac_lag(r, log);
+    // Scores of the scaled columns, a column per row.
+    let g = DMatrix::from_fn(p, m, |c, t| a[(t, c)] / norms[c] * r[t]);
+    let mut meat = &g * g.transpose();
+    for l in 1..=lag {
+        let w = 1.0 - l as f64 / (lag + 1) as f64;
+        let mut cross = DMatrix::zeros(p, p);
+        for t in l..m {
+            if log[t] == log[t - l] {
+                cross.ger(1.0, &g.column(t), &g.column(t - l), 1.0);
+            }
+        }
+        meat += (&cross + cross.transpose()) * w;
+    }
+    let dof = m as f64 / (m.saturating_sub(p)).max(1) as f64;
+    let cov_scaled = &bread * meat * &bread * dof;
+    Ok(DMatrix::from_fn(p, p, |i, j| {
+        cov_scaled[(i, j)] / (norms[i] * norms[j])
+    }))
+}
+
+/// Bartlett lag of [`covariance`]: Andrews' AR(1) plug-in from the lag-1 autocorrelation of
+/// the residuals `r` pooled within the logs `log`, capped at a quarter of the mean rows per
+/// log.
+fn hac_lag(r: &DVector<f64>, log: &[usize]) -> usize {
+    let m = r.len();
+    let (mut num, mut den) = (0.0, 0.0);
+    for t in 0..m {
+        den += r[t] * r[t];
+        if t > 0 && log[t] == log[t - 1] {
+            num += r[t] * r[t - 1];
         }
     }
-    debug_assert_eq!(est.values.len(), p);
-    Ok(cov)
+    let rho = if den > 0.0 {
+        (num / den).clamp(0.0, 0.97)
+    } else {
+        0.0
+    };
+    let logs = log.windows(2).filter(|w| w[0] != w[1]).count() + 1;
+    let rows = m as f64 / logs as f64;
+    let alpha = 4.0 * rho * rho / ((1.0 - rho).powi(2) * (1.0 + rho).powi(2));
+    (1.1447 * (alpha * rows).cbrt()).min(rows / 4.0).floor() as usize
 }
 
 /// `J^T J` from the transposed Jacobian `J^T` (`p x m`, a column per sample) by the blocked
@@ -723,7 +772,8 @@ fn levenberg_marquardt(
     let y = &jac * DVector::from_iterator(moved.len(), moved.iter().map(|&k| z[k])) - &r;
     let moved_names: Vec<String> = moved.iter().map(|&k| names[k].clone()).collect();
     let est = solve(&jac, &y, &moved_names)?;
-    let moved_cov = covariance(&jac, r.norm_squared(), &est)?;
+    let logs: Vec<usize> = rows.iter().map(|&m| s.piece[m].0).collect();
+    let moved_cov = covariance(&jac, &r, &logs)?;
     let mut cov = DMatrix::zeros(np, np);
     for (a, &ka) in moved.iter().enumerate() {
         for (b, &kb) in moved.iter().enumerate() {
@@ -1098,6 +1148,53 @@ mod tests {
         assert!(
             sigma < 0.2 && (rel - 0.01).abs() < 0.002,
             "sigma {sigma}, rel {rel}"
+        );
+    }
+
+    /// Least squares on slow regressors (a constant and a 0.05 Hz sine and cosine at 10 Hz,
+    /// four logs of 30 s) with AR(1) residuals (rho 0.7): the plain `s^2 (A^T A)^-1` is
+    /// several times too narrow, the HAC covariance matches the spread of the estimates over
+    /// 400 draws.
+    #[test]
+    fn the_covariance_accounts_for_residuals_correlated_in_time() {
+        let (logs, rows, rho): (usize, usize, f64) = (4, 300, 0.7);
+        // Each row its own log: no lags, the plain sandwich.
+        let unrelated: Vec<usize> = (0..logs * rows).collect();
+        let log: Vec<usize> = (0..logs * rows).map(|m| m / rows).collect();
+        let a = DMatrix::from_fn(logs * rows, 3, |m, c| {
+            let t = (m % rows) as f64 * 0.1 + 7.0 * (m / rows) as f64;
+            let w = 2.0 * std::f64::consts::PI * 0.05 * t;
+            [1.0, w.sin(), w.cos()][c]
+        });
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let (draws, mut est, mut hac, mut plain) = (400, Vec::new(), 0.0, 0.0);
+        for _ in 0..draws {
+            let mut e = DVector::zeros(logs * rows);
+            let mut prev = 0.0;
+            for m in 0..logs * rows {
+                let z: f64 = rng.sample(StandardNormal);
+                prev = if m % rows == 0 {
+                    z / (1.0 - rho * rho).sqrt()
+                } else {
+                    rho * prev + z
+                };
+                e[m] = prev;
+            }
+            let x = a.clone().svd(true, true).solve(&e, 0.0).unwrap();
+            let r = &e - &a * &x;
+            hac += covariance(&a, &r, &log).unwrap()[(0, 0)] / draws as f64;
+            plain += covariance(&a, &r, &unrelated).unwrap()[(0, 0)] / draws as f64;
+            est.push(x[0]);
+        }
+        let mean = est.iter().sum::<f64>() / draws as f64;
+        let spread = est.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (draws - 1) as f64;
+        assert!(
+            (0.7..1.4).contains(&(hac / spread)),
+            "HAC variance {hac:.3e} against the spread {spread:.3e}"
+        );
+        assert!(
+            plain / spread < 0.4,
+            "plain {plain:.3e}, spread {spread:.3e}"
         );
     }
 }
