@@ -128,3 +128,38 @@ fn nan_is_rejected_and_parameters_without_effect_are_named() {
         assert!(none.contains(&p.to_string()), "{p} has no effect: {none:?}");
     }
 }
+
+/// `BaseParams::compute` remembers its last results: asking again for a robot gives that
+/// robot's set, also after a robot of the same name with another geometry (joint 3 moved
+/// from 0.35 to 0.40 m along the upper arm) was asked for in between.
+#[test]
+fn remembered_base_parameters_follow_the_geometry() {
+    let robot = common::irb1200();
+    let mut joints = robot.joints().to_vec();
+    joints[2].origin.translation.vector *= 0.40 / 0.35;
+    let longer = powertwin::model::Robot::new(
+        robot.name(),
+        robot.base().clone(),
+        joints,
+        robot.links().to_vec(),
+        *robot.flange(),
+        robot.flange_name(),
+    )
+    .unwrap();
+    let layout = ParamLayout::new(&robot, true, true);
+    let a3 = |r: &powertwin::model::Robot| {
+        let bp = BaseParams::compute(r, layout, &SamplingOptions::default()).unwrap();
+        let rel = bp.relations();
+        let mx2 = rel.iter().find(|r| r.standard == "MX2").unwrap().clone();
+        mx2.terms.iter().find(|(n, _)| n == "M3").unwrap().1
+    };
+    for (r, expect) in [
+        (&robot, 0.35),
+        (&longer, 0.40),
+        (&robot, 0.35),
+        (&longer, 0.40),
+    ] {
+        let got = a3(r);
+        assert!((got - expect).abs() < 1e-9, "a3 {got}, expected {expect}");
+    }
+}
