@@ -22,6 +22,14 @@ impl Progress for Bars {
         }
     }
 
+    fn extend(&self, items: usize) {
+        if let Ok(slot) = self.0.lock()
+            && let Some(bar) = slot.as_ref()
+        {
+            bar.inc_length(items as u64);
+        }
+    }
+
     fn advance(&self) {
         if let Ok(slot) = self.0.lock()
             && let Some(bar) = slot.as_ref()

@@ -21,7 +21,7 @@ use crate::validation::estimators::{EstimatorResult, compare};
 use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSet, IdSetOptions};
 use crate::validation::payloads::{self, Cases};
-use crate::validation::rig::{Progress, Rig};
+use crate::validation::rig::{Progress, Rig, Together};
 use crate::validation::score::{self, ParamRow};
 use crate::validation::steps::{self, Steps, StepsOptions};
 use crate::validation::sweep::{self, Sweep};
@@ -124,63 +124,118 @@ impl Outcome {
     }
 }
 
-/// Run `plan` on `rig`.
+/// Run `plan` on `rig`. Work that does not depend on each other runs side by side on the
+/// thread pool: the six steps and the estimators beside the identification set and the
+/// held-out benchmark, then Table 4 beside the sweep. Each stage's wall time is its own
+/// (side-by-side stages overlap).
 pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     let mut timings = Vec::new();
-    let mut clock = Instant::now();
-    let mut lap = |stage: &str| {
-        timings.push(StageTime {
+    let lap = |clock: &mut Instant, stage: &str| -> StageTime {
+        let t = StageTime {
             stage: stage.to_string(),
             wall_s: clock.elapsed().as_secs_f64(),
-        });
-        clock = Instant::now();
+        };
+        *clock = Instant::now();
+        t
     };
+    let mut clock = Instant::now();
     let planned = sweep::plan(rig.robot, &plan.scenario)?;
-    lap("task planned for every sweep cell");
-    let steps = steps::run(rig, &plan.steps, progress)?;
-    lap("excitation, twin runs and six-step identification (Table 3)");
-    progress.stage("Table 2: estimators (in-sample)", 1);
-    let estimators = compare(rig, &steps)?;
-    progress.advance();
-    lap("estimators compared on the steps' data (Table 2, in-sample)");
-    let idset = idset::run(rig, &plan.idset, progress)?;
-    let model = idset.selection.fit.model.clone();
-    let parameters = score::table(
-        rig.robot,
-        rig.drive,
-        &model,
-        &[&idset.selection.fit.free_estimate()],
-    )?;
-    lap("identification set: joint design, twin runs, cross-validated fit");
-    let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, progress)?;
-    lap("held-out benchmark");
-    let efficiency = DATASHEET_EFFICIENCY;
+    timings.push(lap(&mut clock, "task planned for every sweep cell"));
+    progress.stage("Tables 3 and 2, identification set, held-out benchmark", 0);
+    let together = Together(progress);
+    let (paper, identified) = rayon::join(
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let steps = steps::run(rig, &plan.steps, &together)?;
+            let t1 = lap(
+                &mut clock,
+                "excitation, twin runs and six-step identification (Table 3; side by side)",
+            );
+            let estimators = compare(rig, &steps)?;
+            let t2 = lap(
+                &mut clock,
+                "estimators compared on the steps' data (Table 2, in-sample; side by side)",
+            );
+            Ok((steps, estimators, [t1, t2]))
+        },
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let idset = idset::run(rig, &plan.idset, &together)?;
+            let model = idset.selection.fit.model.clone();
+            let parameters = score::table(
+                rig.robot,
+                rig.drive,
+                &model,
+                &[&idset.selection.fit.free_estimate()],
+            )?;
+            let t1 = lap(
+                &mut clock,
+                "identification set: joint design, twin runs, cross-validated fit (side by side)",
+            );
+            let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, &together)?;
+            let t2 = lap(&mut clock, "held-out benchmark (side by side)");
+            Ok((
+                idset,
+                model,
+                parameters,
+                heldout,
+                heldout_datasets,
+                [t1, t2],
+            ))
+        },
+    );
+    let (steps, estimators, paper_times) = paper?;
+    let (idset, model, parameters, heldout, heldout_datasets, identified_times) = identified?;
+    timings.extend(paper_times);
+    timings.extend(identified_times);
     let last = steps
         .trajectories
         .last()
         .ok_or_else(|| Error::InvalidInput("no step ran".into()))?;
-    let cases = payloads::run(
-        rig,
-        &steps.model,
-        &model,
-        last,
-        Route::Fourier {
-            base_freq_hz: 0.1,
-            harmonics: 5,
+    let efficiency = DATASHEET_EFFICIENCY;
+    progress.stage(
+        "Table 4 and Figure 14: tool and load cases, speed x load sweep",
+        0,
+    );
+    let (cases, sweep) = rayon::join(
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let cases = payloads::run(
+                rig,
+                &steps.model,
+                &model,
+                last,
+                Route::Fourier {
+                    base_freq_hz: 0.1,
+                    harmonics: 5,
+                },
+                &plan.cases,
+                efficiency,
+                &together,
+            )?;
+            Ok((
+                cases,
+                lap(&mut clock, "tool and load cases (Table 4; side by side)"),
+            ))
         },
-        &plan.cases,
-        efficiency,
-        progress,
-    )?;
-    lap("tool and load cases (Table 4)");
-    let sweep = sweep::run(
-        rig,
-        &plan.scenario,
-        planned,
-        Some((&model, efficiency)),
-        progress,
-    )?;
-    lap("pick-and-place sweep (Figure 14)");
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let sweep = sweep::run(
+                rig,
+                &plan.scenario,
+                planned,
+                Some((&model, efficiency)),
+                &together,
+            )?;
+            Ok((
+                sweep,
+                lap(&mut clock, "pick-and-place sweep (Figure 14; side by side)"),
+            ))
+        },
+    );
+    let (cases, cases_time) = cases?;
+    let (sweep, sweep_time) = sweep?;
+    timings.extend([cases_time, sweep_time]);
     Ok(Outcome {
         steps,
         estimators,

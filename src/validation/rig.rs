@@ -73,8 +73,25 @@ impl Rig<'_> {
 pub trait Progress: Sync {
     /// A stage of `items` units of work begins.
     fn stage(&self, name: &str, items: usize);
+    /// `items` more units join the current stage (work that runs alongside it).
+    fn extend(&self, items: usize) {
+        let _ = items;
+    }
     /// One unit of the current stage is done.
     fn advance(&self);
+}
+
+/// Stages that run side by side under one stage of the wrapped progress: each stage begun
+/// through it adds its units to that stage.
+pub struct Together<'a>(pub &'a dyn Progress);
+
+impl Progress for Together<'_> {
+    fn stage(&self, _: &str, items: usize) {
+        self.0.extend(items);
+    }
+    fn advance(&self) {
+        self.0.advance();
+    }
 }
 
 /// Progress that goes nowhere.

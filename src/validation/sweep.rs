@@ -191,7 +191,10 @@ pub fn plan(robot: &Robot, scenario: &Scenario) -> Result<Vec<Planned>> {
 /// efficiency-scaled model.
 pub type Predictor<'a> = (&'a PowerModel, f64);
 
-/// Run the planned cells on `rig` in parallel, and predict every cell when a model is given.
+/// Run the planned cells on `rig` in parallel, and predict every cell when a model is given;
+/// with a model, each load's least-energy speed is searched at the same time (it needs only
+/// the plans). The twin runs start longest first, so that no long run is left alone on one
+/// core at the end.
 pub fn run(
     rig: &Rig,
     scenario: &Scenario,
@@ -202,68 +205,117 @@ pub fn run(
     let robot = rig.robot;
     progress.stage("Figure 14: speed x load sweep", plans.len());
     let dt = rig.twin.physics.dt;
-    let out: Vec<(Cell, Dataset, TaskRun)> = plans
-        .into_par_iter()
-        .enumerate()
-        .map(|(k, Planned { speed, load, plan })| {
-            let description = serde_json::json!({
-                "kind": "pick and place",
-                "scenario": scenario.name,
-                "speed_m_s": speed,
-                "load_kg": load,
-            });
-            let (ds, report) = rig.run_reported(
-                &plan.motion.trajectory,
-                &plan.events,
-                &[],
-                200 + k as u64,
-                description,
-            )?;
-            let pred = predictor
-                .map(|(model, efficiency)| {
-                    model.energy_with_payloads(
-                        robot,
-                        &plan.motion.trajectory,
-                        &plan.events,
-                        efficiency,
-                        dt,
-                    )
-                })
-                .transpose()?;
-            let sim = &ds.meta.summary;
-            progress.advance();
-            Ok((
-                Cell {
-                    speed_m_s: speed,
+    let speeds: Vec<f64> = plans.iter().map(|p| p.speed).collect();
+    let (lo, hi) = (
+        speeds.iter().cloned().fold(f64::INFINITY, f64::min),
+        speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let mut loads: Vec<f64> = Vec::new();
+    for p in &plans {
+        if !loads.contains(&p.load) {
+            loads.push(p.load);
+        }
+    }
+    let mut order: Vec<(usize, Planned)> = plans.into_iter().enumerate().collect();
+    order.sort_by(|a, b| {
+        b.1.plan
+            .motion
+            .duration_s
+            .total_cmp(&a.1.plan.motion.duration_s)
+    });
+    let run_cell = |(k, Planned { speed, load, plan }): (usize, Planned)| {
+        let description = serde_json::json!({
+            "kind": "pick and place",
+            "scenario": scenario.name,
+            "speed_m_s": speed,
+            "load_kg": load,
+        });
+        let (ds, report) = rig.run_reported(
+            &plan.motion.trajectory,
+            &plan.events,
+            &[],
+            200 + k as u64,
+            description,
+        )?;
+        let pred = predictor
+            .map(|(model, efficiency)| {
+                model.energy_with_payloads(
+                    robot,
+                    &plan.motion.trajectory,
+                    &plan.events,
+                    efficiency,
+                    dt,
+                )
+            })
+            .transpose()?;
+        let sim = &ds.meta.summary;
+        progress.advance();
+        Ok((
+            k,
+            Cell {
+                speed_m_s: speed,
+                load_kg: load,
+                cycle_time_s: plan.motion.duration_s,
+                simulated_j: sim.energy_total_j,
+                simulated_grid_j: sim.energy_grid_j,
+                predicted_j: pred.map(|p| p.motor_j),
+                predicted_grid_j: pred.map(|p| p.grid_j),
+                error_pct: pred
+                    .map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
+                slowed: plan.motion.slowed.clone(),
+                flagged: run_flagged(&report),
+                max_tracking_error_rad: report.max_tracking_error_rad,
+                torque_limit_hits: report.torque_limit_hits,
+            },
+            ds,
+            plan,
+        ))
+    };
+    let least = |load: f64| -> Result<Option<SpeedOptimum>> {
+        predictor
+            .map(|(model, efficiency)| {
+                let task = Task {
+                    robot,
+                    scenario,
                     load_kg: load,
-                    cycle_time_s: plan.motion.duration_s,
-                    simulated_j: sim.energy_total_j,
-                    simulated_grid_j: sim.energy_grid_j,
-                    predicted_j: pred.map(|p| p.motor_j),
-                    predicted_grid_j: pred.map(|p| p.grid_j),
-                    error_pct: pred
-                        .map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
-                    slowed: plan.motion.slowed.clone(),
-                    flagged: run_flagged(&report),
-                    max_tracking_error_rad: report.max_tracking_error_rad,
-                    torque_limit_hits: report.torque_limit_hits,
-                },
-                ds,
-                plan,
-            ))
-        })
-        .collect::<Result<_>>()?;
+                    model,
+                    efficiency,
+                };
+                speed::least_energy(&task, lo, hi)
+            })
+            .transpose()
+    };
+    // `par_bridge` hands the runs out in the order given: longest first.
+    let (out, predicted) = rayon::join(
+        || {
+            order
+                .into_iter()
+                .par_bridge()
+                .map(run_cell)
+                .collect::<Result<Vec<_>>>()
+        },
+        || {
+            loads
+                .par_iter()
+                .map(|&l| least(l))
+                .collect::<Result<Vec<_>>>()
+        },
+    );
+    let mut out = out?;
+    let predicted = predicted?;
+    out.sort_by_key(|o| o.0);
     let mut cells = Vec::with_capacity(out.len());
     let mut datasets = Vec::with_capacity(out.len());
     let mut plans = Vec::with_capacity(out.len());
-    for (c, d, p) in out {
+    for (_, c, d, p) in out {
         cells.push(c);
         datasets.push(d);
         plans.push(p);
     }
-    let optima = distinct(&cells, |c| c.load_kg)
-        .par_iter()
-        .map(|&load| optimum(rig, scenario, predictor, &cells, load))
+    let optima = loads
+        .iter()
+        .zip(predicted)
+        .map(|(&load, predicted)| optimum(&cells, load, predicted))
         .collect::<Result<_>>()?;
     let pareto = pareto_front(&cells);
     Ok(Sweep {
@@ -287,14 +339,8 @@ pub fn distinct(cells: &[Cell], key: impl Fn(&Cell) -> f64) -> Vec<f64> {
     out
 }
 
-/// The optimum of one load level.
-fn optimum(
-    rig: &Rig,
-    scenario: &Scenario,
-    predictor: Option<Predictor>,
-    cells: &[Cell],
-    load: f64,
-) -> Result<Optimum> {
+/// The optimum of one load level, with the model's least-energy speed when there is one.
+fn optimum(cells: &[Cell], load: f64, predicted: Option<SpeedOptimum>) -> Result<Optimum> {
     let mut row: Vec<&Cell> = cells.iter().filter(|c| c.load_kg == load).collect();
     row.sort_by(|a, b| a.speed_m_s.total_cmp(&b.speed_m_s));
     let best = (0..row.len())
@@ -311,20 +357,6 @@ fn optimum(
         parabola_min(&x, &y).exp()
     } else {
         row[best].speed_m_s
-    };
-    let predicted = match predictor {
-        Some((model, efficiency)) => {
-            let task = Task {
-                robot: rig.robot,
-                scenario,
-                load_kg: load,
-                model,
-                efficiency,
-            };
-            let (lo, hi) = (row[0].speed_m_s, row[row.len() - 1].speed_m_s);
-            Some(speed::least_energy(&task, lo, hi)?)
-        }
-        None => None,
     };
     Ok(Optimum {
         load_kg: load,
