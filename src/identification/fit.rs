@@ -619,22 +619,46 @@ fn covariance(a: &DMatrix<f64>, r: &DVector<f64>, log: &[usize]) -> Result<DMatr
     let lag = hac_lag(r, log);
     // Scores of the scaled columns, a column per row.
     let g = DMatrix::from_fn(p, m, |c, t| a[(t, c)] / norms[c] * r[t]);
-    let mut meat = &g * g.transpose();
-    for l in 1..=lag {
-        let w = 1.0 - l as f64 / (lag + 1) as f64;
-        let mut cross = DMatrix::zeros(p, p);
-        for t in l..m {
-            if log[t] == log[t - l] {
-                cross.ger(1.0, &g.column(t), &g.column(t - l), 1.0);
-            }
-        }
-        meat += (&cross + cross.transpose()) * w;
-    }
+    let meat = bartlett_meat(&g, log, lag);
     let dof = m as f64 / (m.saturating_sub(p)).max(1) as f64;
     let cov_scaled = &bread * meat * &bread * dof;
     Ok(DMatrix::from_fn(p, p, |i, j| {
         cov_scaled[(i, j)] / (norms[i] * norms[j])
     }))
+}
+
+/// `sum_{t,s} k(|t - s|) g_t g_s^T` over the columns `g_t` of `g` that belong to one log
+/// (`log[t]`, each log's columns contiguous and in time order), with the Bartlett kernel
+/// `k(d) = 1 - d / (lag + 1)` for `d <= lag`. The kernel is the overlap of two boxes of
+/// `lag + 1` samples, so this is `sum_j h_j h_j^T / (lag + 1)` over the sums `h_j` of `g`
+/// in every window of `lag + 1` samples that overlaps a log (partial windows at its ends
+/// included): one matrix product, at the cost of lag 0 whatever the lag (a loop over lags
+/// costs `lag` times that, and 1 kHz logs, their residuals correlated over many samples,
+/// get long lags).
+fn bartlett_meat(g: &DMatrix<f64>, log: &[usize], lag: usize) -> DMatrix<f64> {
+    let p = g.nrows();
+    let mut starts = vec![0];
+    starts.extend((1..log.len()).filter(|&t| log[t] != log[t - 1]));
+    starts.push(log.len());
+    let windows: usize = starts.windows(2).map(|w| w[1] - w[0] + lag).sum();
+    let mut h = DMatrix::zeros(p, windows);
+    let mut col = 0;
+    for seg in starts.windows(2) {
+        let (s0, len) = (seg[0], seg[1] - seg[0]);
+        // Prefix sums: column k holds the sum of the segment's first k scores.
+        let mut prefix = DMatrix::zeros(p, len + 1);
+        for k in 0..len {
+            let next = prefix.column(k) + g.column(s0 + k);
+            prefix.set_column(k + 1, &next);
+        }
+        for j in 0..len + lag {
+            // Window [j - lag, j] of the segment, clipped to it.
+            let (from, to) = (j.saturating_sub(lag), j.min(len - 1) + 1);
+            h.set_column(col, &(prefix.column(to) - prefix.column(from)));
+            col += 1;
+        }
+    }
+    (&h * h.transpose()) / (lag + 1) as f64
 }
 
 /// Bartlett lag of [`covariance`]: Andrews' AR(1) plug-in from the lag-1 autocorrelation of
@@ -1196,5 +1220,32 @@ mod tests {
             plain / spread < 0.4,
             "plain {plain:.3e}, spread {spread:.3e}"
         );
+    }
+
+    /// The window form of the Bartlett sum equals the sum over lags.
+    #[test]
+    fn the_bartlett_windows_equal_the_sum_over_lags() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let log: Vec<usize> = (0..23)
+            .map(|t| usize::from(t >= 9) + usize::from(t >= 20))
+            .collect();
+        let g = DMatrix::from_fn(4, log.len(), |_, _| rng.sample::<f64, _>(StandardNormal));
+        for lag in [0, 1, 2, 5, 12] {
+            let mut direct = &g * g.transpose();
+            for l in 1..=lag {
+                let w = 1.0 - l as f64 / (lag + 1) as f64;
+                for t in l..log.len() {
+                    if log[t] == log[t - l] {
+                        let c = g.column(t) * g.column(t - l).transpose();
+                        direct += (&c + c.transpose()) * w;
+                    }
+                }
+            }
+            let windows = bartlett_meat(&g, &log, lag);
+            assert!(
+                (windows - &direct).abs().max() < 1e-12 * direct.abs().max(),
+                "lag {lag}"
+            );
+        }
     }
 }
