@@ -321,3 +321,47 @@ fn optimize_cli_writes_the_plan_charts_and_datasets() {
         "{stdout}"
     );
 }
+
+/// The least-energy speed of several loads searched together (their sampled speeds planned
+/// once) is each load's own search; the energy there is no more than at the range's ends,
+/// and more for the heavier load; tasks of two scenarios are refused.
+#[test]
+fn the_speed_search_of_several_loads_is_each_loads_own() {
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let rig = rig(&robot, &drive);
+    let scenario = Scenario::builtin().unwrap();
+    let light = Task {
+        load_kg: 0.0,
+        ..task_2kg(&rig, &scenario)
+    };
+    let heavy = Task {
+        load_kg: 4.0,
+        ..task_2kg(&rig, &scenario)
+    };
+    let (lo, hi) = (0.3, 1.0);
+    let both = powertwin::optimize::speed::least_energy(&[light, heavy], lo, hi).unwrap();
+    for (task, together) in [light, heavy].iter().zip(&both) {
+        let alone = powertwin::optimize::speed::least_energy(&[*task], lo, hi).unwrap();
+        assert_eq!(alone, vec![*together]);
+        assert!((lo..=hi).contains(&together.speed_m_s), "{together:?}");
+        for v in [lo, hi] {
+            let run = scenario.plan(&robot, v, task.load_kg).unwrap();
+            let end = powertwin::optimize::predict_run(task, &run)
+                .unwrap()
+                .energy_j;
+            assert!(
+                together.predicted_j <= end,
+                "{together:?} above {end} J at {v} m/s"
+            );
+        }
+    }
+    assert!(both[1].predicted_j > both[0].predicted_j, "{both:?}");
+    let mut other = scenario.clone();
+    other.name.push_str(" (copy)");
+    let stranger = Task {
+        scenario: &other,
+        ..light
+    };
+    assert!(powertwin::optimize::speed::least_energy(&[light, stranger], lo, hi).is_err());
+}

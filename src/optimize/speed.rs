@@ -10,7 +10,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 
-use super::segment::Task;
+use super::segment::{PREDICTION_STEP_S, Task};
+use crate::trajectory::linear_move::LinearMotion;
 
 /// Speeds sampled across the range, evenly in log speed.
 const SAMPLES: usize = 24;
@@ -41,24 +42,77 @@ pub struct SpeedOptimum {
     pub at_range_end: bool,
 }
 
-/// The least predicted energy of `task` at uniform speeds in `[lo_m_s, hi_m_s]` (m/s).
-/// Errors: a bad range, or no speed in it that plans.
-pub fn least_energy(task: &Task, lo_m_s: f64, hi_m_s: f64) -> Result<SpeedOptimum> {
+/// The least predicted energy of each of `tasks` (one task, robot and model at several load
+/// levels) at uniform speeds in `[lo_m_s, hi_m_s]` (m/s), in the order given. The motion at a
+/// speed does not depend on the load, so the sampled speeds are planned once for all loads.
+/// Errors: a bad range, tasks of different robots or scenarios, or a load with no speed in
+/// the range that plans.
+pub fn least_energy(tasks: &[Task], lo_m_s: f64, hi_m_s: f64) -> Result<Vec<SpeedOptimum>> {
     if !(lo_m_s.is_finite() && lo_m_s > 0.0 && hi_m_s >= lo_m_s && hi_m_s.is_finite()) {
         return Err(Error::InvalidInput(format!(
             "speed range [{lo_m_s}, {hi_m_s}] m/s must be finite, positive and ordered"
         )));
     }
+    let Some(first) = tasks.first() else {
+        return Ok(Vec::new());
+    };
+    if tasks
+        .iter()
+        .any(|t| t.robot != first.robot || t.scenario != first.scenario)
+    {
+        return Err(Error::InvalidInput(
+            "the speed search takes the tasks of one robot and one scenario".into(),
+        ));
+    }
     let (a, b) = (lo_m_s.ln(), hi_m_s.ln());
     let xs: Vec<f64> = (0..SAMPLES)
         .map(|k| a + (b - a) * k as f64 / (SAMPLES - 1) as f64)
         .collect();
-    let energy = |ln_v: f64| -> Result<(f64, f64, usize)> {
-        let run = task.scenario.plan(task.robot, ln_v.exp(), task.load_kg)?;
-        let p = super::predict_run(task, &run)?;
-        Ok((p.energy_j, run.motion.duration_s, run.motion.slowed.len()))
-    };
-    let ys: Vec<Option<(f64, f64, usize)>> = xs.par_iter().map(|&x| energy(x).ok()).collect();
+    let (robot, scenario) = (first.robot, first.scenario);
+    let plan = |ln_v: f64| scenario.plan_motion(robot, &scenario.uniform(ln_v.exp()));
+    let motions: Vec<Option<LinearMotion>> = xs.par_iter().map(|&x| plan(x).ok()).collect();
+    tasks
+        .par_iter()
+        .map(|task| {
+            let energy_of = |motion: &LinearMotion| -> Result<(f64, f64, usize)> {
+                let events = scenario.payload_events(&motion.arrivals_s, task.load_kg)?;
+                let p = task.model.predict(
+                    robot,
+                    &motion.trajectory,
+                    &events,
+                    task.efficiency,
+                    PREDICTION_STEP_S,
+                )?;
+                Ok((p.energy_j, motion.duration_s, motion.slowed.len()))
+            };
+            let ys: Vec<Option<(f64, f64, usize)>> = motions
+                .par_iter()
+                .map(|m| m.as_ref().and_then(|m| energy_of(m).ok()))
+                .collect();
+            search(
+                task,
+                &xs,
+                &ys,
+                |x| energy_of(&plan(x)?),
+                (a, b),
+                (lo_m_s, hi_m_s),
+            )
+        })
+        .collect()
+}
+
+/// The optimum of `task` from its energies `ys` (J, with cycle time, s, and slowed segments)
+/// sampled at the log speeds `xs`, refined with `energy` (the same of a log speed) inside the
+/// best sample's bracket; `(a, b)` is the searched range in log speed, `(lo_m_s, hi_m_s)` in
+/// m/s.
+fn search(
+    task: &Task,
+    xs: &[f64],
+    ys: &[Option<(f64, f64, usize)>],
+    energy: impl Fn(f64) -> Result<(f64, f64, usize)>,
+    (a, b): (f64, f64),
+    (lo_m_s, hi_m_s): (f64, f64),
+) -> Result<SpeedOptimum> {
     let best = (0..SAMPLES)
         .filter(|&k| ys[k].is_some())
         .min_by(|&i, &j| {

@@ -270,33 +270,10 @@ impl Scenario {
         timing: &[SegmentTiming],
         load_kg: f64,
     ) -> Result<TaskRun> {
-        let payloads = self.segment_payloads(load_kg)?;
-        let tcp = self.tcp();
-        let via = self.via_poses();
-        let motion =
-            linear_move::plan_timed(robot, &tcp, &self.seed_rad, &via, timing, &self.motion)?;
-        // What the flange carries changes on arrival at a pick or release step.
-        let mut events = vec![PayloadEvent {
-            t_s: 0.0,
-            payload: self.tool.clone(),
-        }];
-        for k in 1..payloads.len() {
-            if payloads[k] != payloads[k - 1] {
-                events.push(PayloadEvent {
-                    t_s: motion.arrivals_s[k],
-                    payload: payloads[k].clone(),
-                });
-            }
-        }
-        if let Some(last) = payloads.last()
-            && *last != self.tool
-        {
-            events.push(PayloadEvent {
-                t_s: motion.arrivals_s[payloads.len()],
-                payload: self.tool.clone(),
-            });
-        }
-        let via = via
+        let motion = self.plan_motion(robot, timing)?;
+        let events = self.payload_events(&motion.arrivals_s, load_kg)?;
+        let via = self
+            .via_poses()
             .into_iter()
             .zip(&motion.arrivals_s)
             .map(|(v, &t)| ViaArrival {
@@ -310,6 +287,55 @@ impl Scenario {
             events,
             via,
         })
+    }
+
+    /// The joint motion of the task with one timing per segment, which does not depend on
+    /// the load: [`Scenario::plan_timed`] without its payloads.
+    pub fn plan_motion(&self, robot: &Robot, timing: &[SegmentTiming]) -> Result<LinearMotion> {
+        linear_move::plan_timed(
+            robot,
+            &self.tcp(),
+            &self.seed_rad,
+            &self.via_poses(),
+            timing,
+            &self.motion,
+        )
+    }
+
+    /// What the flange carries at load level `load_kg` (kg) along a motion of the task whose
+    /// steps are reached at `arrivals_s` (s, one per step): the tool from `t = 0`, tool and
+    /// load from each pick, the tool again from each release (sorted by time).
+    pub fn payload_events(&self, arrivals_s: &[f64], load_kg: f64) -> Result<Vec<PayloadEvent>> {
+        let payloads = self.segment_payloads(load_kg)?;
+        if arrivals_s.len() != payloads.len() + 1 {
+            return Err(Error::InvalidInput(format!(
+                "{} arrival times for a task of {} segments",
+                arrivals_s.len(),
+                payloads.len()
+            )));
+        }
+        // What the flange carries changes on arrival at a pick or release step.
+        let mut events = vec![PayloadEvent {
+            t_s: 0.0,
+            payload: self.tool.clone(),
+        }];
+        for k in 1..payloads.len() {
+            if payloads[k] != payloads[k - 1] {
+                events.push(PayloadEvent {
+                    t_s: arrivals_s[k],
+                    payload: payloads[k].clone(),
+                });
+            }
+        }
+        if let Some(last) = payloads.last()
+            && *last != self.tool
+        {
+            events.push(PayloadEvent {
+                t_s: arrivals_s[payloads.len()],
+                payload: self.tool.clone(),
+            });
+        }
+        Ok(events)
     }
 
     /// What the flange carries on each segment at load level `load_kg` (kg): the tool, or the

@@ -271,19 +271,25 @@ pub fn run(
             plan,
         ))
     };
-    let least = |load: f64| -> Result<Option<SpeedOptimum>> {
-        predictor
-            .map(|(model, efficiency)| {
-                let task = Task {
-                    robot,
-                    scenario,
-                    load_kg: load,
-                    model,
-                    efficiency,
-                };
-                speed::least_energy(&task, lo, hi)
+    // The model's least-energy speed of every load, searched while the twin runs.
+    let least = || -> Result<Vec<Option<SpeedOptimum>>> {
+        let Some((model, efficiency)) = predictor else {
+            return Ok(vec![None; loads.len()]);
+        };
+        let tasks: Vec<Task> = loads
+            .iter()
+            .map(|&load_kg| Task {
+                robot,
+                scenario,
+                load_kg,
+                model,
+                efficiency,
             })
-            .transpose()
+            .collect();
+        Ok(speed::least_energy(&tasks, lo, hi)?
+            .into_iter()
+            .map(Some)
+            .collect())
     };
     // `par_bridge` hands the runs out in the order given: longest first.
     let (out, predicted) = rayon::join(
@@ -294,12 +300,7 @@ pub fn run(
                 .map(run_cell)
                 .collect::<Result<Vec<_>>>()
         },
-        || {
-            loads
-                .par_iter()
-                .map(|&l| least(l))
-                .collect::<Result<Vec<_>>>()
-        },
+        least,
     );
     let mut out = out?;
     let predicted = predicted?;
