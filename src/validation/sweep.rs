@@ -210,12 +210,7 @@ pub fn run(
         speeds.iter().cloned().fold(f64::INFINITY, f64::min),
         speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
     );
-    let mut loads: Vec<f64> = Vec::new();
-    for p in &plans {
-        if !loads.contains(&p.load) {
-            loads.push(p.load);
-        }
-    }
+    let loads = distinct(&plans, |p| p.load);
     let mut order: Vec<(usize, Planned)> = plans.into_iter().enumerate().collect();
     order.sort_by(|a, b| {
         b.1.plan
@@ -328,11 +323,11 @@ pub fn run(
     })
 }
 
-/// The distinct values of `key` over `cells` (e.g. the load levels), in order of first
-/// appearance.
-pub fn distinct(cells: &[Cell], key: impl Fn(&Cell) -> f64) -> Vec<f64> {
+/// The distinct values of `key` over `items` (e.g. the load levels of the cells), in order of
+/// first appearance.
+pub fn distinct<T>(items: &[T], key: impl Fn(&T) -> f64) -> Vec<f64> {
     let mut out: Vec<f64> = Vec::new();
-    for c in cells {
+    for c in items {
         if !out.contains(&key(c)) {
             out.push(key(c));
         }
