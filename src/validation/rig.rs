@@ -101,3 +101,43 @@ impl Progress for Silent {
     fn stage(&self, _: &str, _: usize) {}
     fn advance(&self) {}
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// Stages begun and units counted: `(name, items, done)` per stage.
+    struct Count(Mutex<Vec<(String, usize, usize)>>);
+
+    impl Progress for Count {
+        fn stage(&self, name: &str, items: usize) {
+            self.0.lock().unwrap().push((name.into(), items, 0));
+        }
+        fn extend(&self, items: usize) {
+            self.0.lock().unwrap().last_mut().unwrap().1 += items;
+        }
+        fn advance(&self) {
+            self.0.lock().unwrap().last_mut().unwrap().2 += 1;
+        }
+    }
+
+    /// Two stages run side by side through `Together` fill one stage of the outer progress.
+    #[test]
+    fn side_by_side_stages_join_one_stage() {
+        let count = Count(Mutex::new(Vec::new()));
+        count.stage("both", 0);
+        let together = Together(&count);
+        rayon::join(
+            || {
+                together.stage("a", 3);
+                (0..3).for_each(|_| together.advance());
+            },
+            || {
+                together.stage("b", 2);
+                (0..2).for_each(|_| together.advance());
+            },
+        );
+        assert_eq!(*count.0.lock().unwrap(), vec![("both".to_string(), 5, 5)]);
+    }
+}
