@@ -228,10 +228,20 @@ pub fn uniform_point(task: &Task, speed_m_s: f64) -> Result<UniformPoint> {
 
 /// The model's prediction of a planned run (servos on throughout).
 pub fn predict_run(task: &Task, run: &TaskRun) -> Result<crate::identification::model::Prediction> {
+    predict_motion(task, &run.motion, &run.events)
+}
+
+/// The model's prediction of a planned `motion` with the payload timeline `events` (servos on
+/// throughout).
+pub fn predict_motion(
+    task: &Task,
+    motion: &crate::trajectory::linear_move::LinearMotion,
+    events: &[crate::model::payload::PayloadEvent],
+) -> Result<crate::identification::model::Prediction> {
     task.model.predict(
         task.robot,
-        &run.motion.trajectory,
-        &run.events,
+        &motion.trajectory,
+        events,
         task.efficiency,
         PREDICTION_STEP_S,
     )

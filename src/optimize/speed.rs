@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 
-use super::segment::{PREDICTION_STEP_S, Task};
+use super::segment::Task;
 use crate::trajectory::linear_move::LinearMotion;
 
 /// Speeds sampled across the range, evenly in log speed.
@@ -76,13 +76,7 @@ pub fn least_energy(tasks: &[Task], lo_m_s: f64, hi_m_s: f64) -> Result<Vec<Spee
         .map(|task| {
             let energy_of = |motion: &LinearMotion| -> Result<(f64, f64, usize)> {
                 let events = scenario.payload_events(&motion.arrivals_s, task.load_kg)?;
-                let p = task.model.predict(
-                    robot,
-                    &motion.trajectory,
-                    &events,
-                    task.efficiency,
-                    PREDICTION_STEP_S,
-                )?;
+                let p = super::predict_motion(task, motion, &events)?;
                 Ok((p.energy_j, motion.duration_s, motion.slowed.len()))
             };
             let ys: Vec<Option<(f64, f64, usize)>> = motions
