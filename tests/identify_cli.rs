@@ -94,13 +94,19 @@ fn identified_model_predicts_the_twins_energy() {
     let (code, _, err) = identify(&["--method", "pmsm", "--weighting", "power-level"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("consistent: the model moved"), "{err}");
-    let (code, _, err) = identify(&["--method", "pmsm", "--unconstrained"]);
+    // The twin logs each motor's power, which is fitted too unless asked not to.
+    assert!(
+        err.contains("fitted on the arm's power and each motor's"),
+        "{err}"
+    );
+    let (code, _, err) = identify(&["--method", "pmsm", "--unconstrained", "--arm-power-only"]);
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("consistent: the model moved"), "{err}");
+    assert!(err.contains("fitted on the arm's power ("), "{err}");
     let (code, _, err) = identify(&["--method", "energy", "--weighting", "per-log"]);
     assert_eq!(code, 1);
     assert!(
-        err.contains("--weighting and --unconstrained apply to"),
+        err.contains("--weighting, --unconstrained and --arm-power-only apply to"),
         "{err}"
     );
 }

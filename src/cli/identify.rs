@@ -160,6 +160,12 @@ pub struct IdentifyArgs {
     /// estimate in its covariance (the input URDF decides what the data cannot see).
     #[arg(long)]
     unconstrained: bool,
+    /// Fit the arm's power alone for --method auto, total and pmsm. By default, when every
+    /// log has the power of each motor, each motor's power is fitted too (its own standby
+    /// power per motor): each joint's parameters are then seen in its own motor, not only
+    /// under the larger joints' power.
+    #[arg(long)]
+    arm_power_only: bool,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -243,9 +249,9 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    if !fitted && (args.unconstrained || args.weighting.is_some()) {
+    if !fitted && (args.unconstrained || args.arm_power_only || args.weighting.is_some()) {
         bail!(
-            "--weighting and --unconstrained apply to --method auto, total and pmsm, not {:?}",
+            "--weighting, --unconstrained and --arm-power-only apply to --method auto, total and pmsm, not {:?}",
             args.method
         );
     }
@@ -274,9 +280,18 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
                 .weighting
                 .map_or(FitOptions::default().weighting, Into::into),
             consistent: !args.unconstrained,
+            motor_power: !args.arm_power_only,
             ..FitOptions::default()
         };
         let sel = identify_logs(&robot, &logs, &[route], &opts)?;
+        eprintln!(
+            "fitted on {}",
+            match (sel.motor_power, args.arm_power_only) {
+                (true, _) => "the arm's power and each motor's",
+                (false, true) => "the arm's power (--arm-power-only)",
+                (false, false) => "the arm's power (the logs do not all have each motor's)",
+            }
+        );
         for c in &sel.scores {
             eprintln!(
                 "cross-validation {}: mean-power error {:.3} W, power RMSE {:.3} W over {} held-out pieces",

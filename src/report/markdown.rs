@@ -23,8 +23,8 @@ fn heldout(w: &mut String, r: &Results) {
         "The model `{}` was identified from {} excitations over the workspace carrying known \
          loads of {} kg, designed together ({} of their stacked 10 Hz power regressor, {} \
          rounds, condition number {:.0}, {:.1} s){}, with the estimator chosen by \
-         cross-validation (leave one run out; mean-power error per candidate: {}; weighting \
-         `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
+         cross-validation (leave one run out; mean-power error per candidate: {}; fitted on \
+         {}; weighting `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
          95 % intervals add to the parameter covariance a structure error fitted to the \
          cross-validation pieces ({:.3} W plus {:.2} % of the active power). It then predicts \
          {} motions drawn from seed {} that no identification saw (random Fourier motions, \
@@ -61,6 +61,11 @@ fn heldout(w: &mut String, r: &Results) {
             .map(|c| format!("{} {:.3} W", c.estimator.name(), c.mean_power_rms_w))
             .collect::<Vec<_>>()
             .join(", "),
+        if m.motor_power {
+            "the arm's power and each motor's"
+        } else {
+            "the arm's power"
+        },
         m.weighting.name(),
         if m.consistent {
             ", made physically consistent"

@@ -65,6 +65,8 @@ pub struct ModelInfo {
     pub weighting: Weighting,
     /// Whether the model was made physically consistent in the pipeline.
     pub consistent: bool,
+    /// Whether each motor's logged power was fitted besides the arm's.
+    pub motor_power: bool,
     /// How the identification set was designed.
     pub design: DesignInfo,
     /// Condition number of each identification excitation's own regressor.
@@ -236,6 +238,7 @@ impl Results {
                 structure_rel: outcome.model.structure_rel,
                 weighting: outcome.idset.weighting,
                 consistent: outcome.idset.selection.consistent.is_some(),
+                motor_power: outcome.idset.selection.motor_power,
                 design: DesignInfo {
                     criterion: outcome.idset.criterion,
                     rounds: outcome.idset.rounds,

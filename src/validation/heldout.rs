@@ -254,18 +254,18 @@ pub fn baseline(robot: &Robot, like: &PowerModel, efficiency: f64) -> Result<Pow
     Ok(m)
 }
 
-/// Run every motion on `rig` and score `model` (and the baseline) against the truth.
-pub fn run(
-    rig: &Rig,
-    model: &PowerModel,
-    opts: &HeldoutOptions,
-    progress: &dyn Progress,
-) -> Result<(Heldout, Vec<Dataset>)> {
-    let robot = rig.robot;
-    let list = motions(robot, opts)?;
-    let base_model = baseline(robot, model, opts.baseline_efficiency)?;
-    progress.stage("held-out motions: twin runs and predictions", list.len());
-    let out: Vec<(MotionResult, Dataset)> = list
+/// The benchmark's motions run on the twin: what [`score`] predicts and scores. They do not
+/// depend on any model, so they can run while the model is identified.
+pub struct Runs {
+    motions: Vec<Motion>,
+    datasets: Vec<Dataset>,
+}
+
+/// Run every motion of the benchmark on `rig`.
+pub fn simulate(rig: &Rig, opts: &HeldoutOptions, progress: &dyn Progress) -> Result<Runs> {
+    let motions = motions(rig.robot, opts)?;
+    progress.stage("held-out motions: twin runs", motions.len());
+    let datasets = motions
         .par_iter()
         .enumerate()
         .map(|(k, m)| {
@@ -284,12 +284,35 @@ pub fn run(
                     description,
                 )
                 .map_err(|e| e.context(&format!("held-out motion {}", k + 1)))?;
-            let r = score::heldout_motion(rig, model, &base_model, k, m, &ds, opts)?;
             progress.advance();
-            Ok((r, ds))
+            Ok(ds)
         })
         .collect::<Result<_>>()?;
-    let (motions, datasets): (Vec<_>, Vec<_>) = out.into_iter().unzip();
+    Ok(Runs { motions, datasets })
+}
+
+/// Score `model` (and the baseline) on the benchmark's `runs` against the truth; returns
+/// the outcome and the runs' datasets.
+pub fn score(
+    rig: &Rig,
+    model: &PowerModel,
+    opts: &HeldoutOptions,
+    runs: Runs,
+    progress: &dyn Progress,
+) -> Result<(Heldout, Vec<Dataset>)> {
+    let base_model = baseline(rig.robot, model, opts.baseline_efficiency)?;
+    progress.stage("held-out motions: predictions", runs.motions.len());
+    let motions: Vec<MotionResult> = runs
+        .motions
+        .par_iter()
+        .zip(&runs.datasets)
+        .enumerate()
+        .map(|(k, (m, ds))| {
+            let r = score::heldout_motion(rig, model, &base_model, k, m, ds, opts)?;
+            progress.advance();
+            Ok(r)
+        })
+        .collect::<Result<_>>()?;
     let h = Heldout {
         seed: opts.seed,
         from_log: RouteSummary::of(motions.iter().map(|m| &m.from_log)),
@@ -300,5 +323,17 @@ pub fn run(
         baseline_power_rmse_w: Spread::of(motions.iter().map(|m| m.baseline_power_rmse_w)),
         motions,
     };
-    Ok((h, datasets))
+    Ok((h, runs.datasets))
+}
+
+/// Run every motion on `rig` and score `model` (and the baseline) against the truth:
+/// [`simulate`], then [`score`].
+pub fn run(
+    rig: &Rig,
+    model: &PowerModel,
+    opts: &HeldoutOptions,
+    progress: &dyn Progress,
+) -> Result<(Heldout, Vec<Dataset>)> {
+    let runs = simulate(rig, opts, progress)?;
+    score(rig, model, opts, runs, progress)
 }

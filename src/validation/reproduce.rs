@@ -160,7 +160,12 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         },
         || -> Result<_> {
             let mut clock = Instant::now();
-            let idset = idset::run(rig, &plan.idset, &together)?;
+            // The held-out motions' twin runs need no model: beside the identification.
+            let (idset, runs) = rayon::join(
+                || idset::run(rig, &plan.idset, &together),
+                || heldout::simulate(rig, &plan.heldout, &together),
+            );
+            let (idset, runs) = (idset?, runs?);
             let model = idset.selection.fit.model.clone();
             let parameters = score::table(
                 rig.robot,
@@ -170,10 +175,14 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
             )?;
             let t1 = lap(
                 &mut clock,
-                "identification set: joint design, twin runs, cross-validated fit (side by side)",
+                "identification set (joint design, twin runs, cross-validated fit) and the held-out motions' twin runs (side by side)",
             );
-            let (heldout, heldout_datasets) = heldout::run(rig, &model, &plan.heldout, &together)?;
-            let t2 = lap(&mut clock, "held-out benchmark (side by side)");
+            let (heldout, heldout_datasets) =
+                heldout::score(rig, &model, &plan.heldout, runs, &together)?;
+            let t2 = lap(
+                &mut clock,
+                "held-out benchmark's predictions (side by side)",
+            );
             Ok((
                 idset,
                 model,
