@@ -254,7 +254,7 @@ pub fn baseline(robot: &Robot, like: &PowerModel, efficiency: f64) -> Result<Pow
     Ok(m)
 }
 
-/// The benchmark's motions run on the twin: what [`score`] predicts and scores. They do not
+/// The benchmark's motions run on the twin: what [`evaluate`] predicts and scores. They do not
 /// depend on any model, so they can run while the model is identified.
 pub struct Runs {
     motions: Vec<Motion>,
@@ -293,7 +293,7 @@ pub fn simulate(rig: &Rig, opts: &HeldoutOptions, progress: &dyn Progress) -> Re
 
 /// Score `model` (and the baseline) on the benchmark's `runs` against the truth; returns
 /// the outcome and the runs' datasets.
-pub fn score(
+pub fn evaluate(
     rig: &Rig,
     model: &PowerModel,
     opts: &HeldoutOptions,
@@ -327,7 +327,7 @@ pub fn score(
 }
 
 /// Run every motion on `rig` and score `model` (and the baseline) against the truth:
-/// [`simulate`], then [`score`].
+/// [`simulate`], then [`evaluate`].
 pub fn run(
     rig: &Rig,
     model: &PowerModel,
@@ -335,5 +335,5 @@ pub fn run(
     progress: &dyn Progress,
 ) -> Result<(Heldout, Vec<Dataset>)> {
     let runs = simulate(rig, opts, progress)?;
-    score(rig, model, opts, runs, progress)
+    evaluate(rig, model, opts, runs, progress)
 }

@@ -178,7 +178,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
                 "identification set (joint design, twin runs, cross-validated fit) and the held-out motions' twin runs (side by side)",
             );
             let (heldout, heldout_datasets) =
-                heldout::score(rig, &model, &plan.heldout, runs, &together)?;
+                heldout::evaluate(rig, &model, &plan.heldout, runs, &together)?;
             let t2 = lap(
                 &mut clock,
                 "held-out benchmark's predictions (side by side)",
