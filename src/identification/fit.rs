@@ -6,7 +6,10 @@
 //! `delta(t)` is the base-parameter change of the payload known to be at the flange then (so
 //! data recorded with tools and loads identify the bare robot). A DC-bus or grid signal
 //! cannot go negative (braking energy is burnt in the brake resistor), so the model of such a
-//! signal is `max(P, 0)`. Estimators:
+//! signal is `max(P, 0)`. When the logs have each motor's power, motor `i`'s is observed too,
+//! `P_i = dq_i tau_i + c_i tau_i^2 + P0_i` with a standby of its own (the paper's eq. 13 with
+//! per-motor power; [`FitOptions::motor_power`]): the same `theta` and `c`, each joint's part
+//! seen in its own motor. Estimators:
 //! - [`Estimator::Total`]: `c = 0`, linear least squares (clipped samples left out);
 //! - [`Estimator::Pmsm`]: copper loss too, Levenberg–Marquardt from the linear solution
 //!   (copper coefficients >= 0 by an active set; those the data cannot tell from zero held
