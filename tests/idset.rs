@@ -240,14 +240,16 @@ fn power_level_weighting_fits_heteroscedastic_power_better() {
     assert!(wls < 0.5 * ols, "OLS {ols}, WLS {wls}");
 }
 
-#[test]
-fn per_log_weighting_and_the_consistent_model() {
-    let robot = common::irb1200();
-    let drive = drive(&robot);
-    let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::default());
+/// The quick identification set of the exact twin with default noise, and the Fourier route
+/// of each of its runs.
+fn quick_exact_set(
+    robot: &powertwin::Robot,
+    drive: &powertwin::model::drive::Drive,
+) -> (idset::IdSet, Vec<Route>) {
+    let rig = rig(robot, drive, Fidelity::Exact, NoiseSettings::default());
     let opts = IdSetOptions::irb1200(true);
     let set = idset::run(&rig, &opts, &Silent).unwrap();
-    let routes: Vec<Route> = opts
+    let routes = opts
         .base_freq_hz
         .iter()
         .map(|&f| Route::Fourier {
@@ -255,6 +257,14 @@ fn per_log_weighting_and_the_consistent_model() {
             harmonics: 5,
         })
         .collect();
+    (set, routes)
+}
+
+#[test]
+fn per_log_weighting_and_the_consistent_model() {
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let (set, routes) = quick_exact_set(&robot, &drive);
     // A meter ten times noisier on the second run.
     let mut logs = set.logs.clone();
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
@@ -306,17 +316,7 @@ fn per_log_weighting_and_the_consistent_model() {
 fn each_motors_power_determines_the_wrist_better_than_the_arms_alone() {
     let robot = common::irb1200();
     let drive = drive(&robot);
-    let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::default());
-    let opts = IdSetOptions::irb1200(true);
-    let set = idset::run(&rig, &opts, &Silent).unwrap();
-    let routes: Vec<Route> = opts
-        .base_freq_hz
-        .iter()
-        .map(|&f| Route::Fourier {
-            base_freq_hz: f,
-            harmonics: 5,
-        })
-        .collect();
+    let (set, routes) = quick_exact_set(&robot, &drive);
     let fitted = |logs: &[powertwin::measurement::Log], motor_power: bool| {
         let fo = FitOptions {
             motor_power,

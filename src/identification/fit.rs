@@ -859,6 +859,34 @@ fn gram(jac_t: &DMatrix<f64>) -> DMatrix<f64> {
     jac_t * jac
 }
 
+/// Residuals of the observations `rows` at `z`, each times `sw` (the square roots of the
+/// weights), and with `jac_t` the transposed Jacobian likewise weighted, a column per
+/// observation. The observations are evaluated in parallel into disjoint slices (no
+/// reduction, so the result does not depend on the threads).
+fn weighted_residuals(
+    s: &Samples,
+    rows: &[usize],
+    sw: &[f64],
+    z: &DVector<f64>,
+    jac_t: Option<&mut DMatrix<f64>>,
+) -> DVector<f64> {
+    let mut r = DVector::zeros(rows.len());
+    let samples = r.as_mut_slice().par_iter_mut().zip(rows).zip(sw);
+    match jac_t {
+        Some(j) => samples
+            .zip(j.as_mut_slice().par_chunks_mut(s.params()))
+            .with_min_len(PARALLEL_SAMPLES)
+            .for_each(|(((rk, &m), &w), col)| {
+                *rk = w * (s.power(m, z, Some(col)) - s.y[m]);
+                col.iter_mut().for_each(|g| *g *= w);
+            }),
+        None => samples
+            .with_min_len(PARALLEL_SAMPLES)
+            .for_each(|((rk, &m), &w)| *rk = w * (s.power(m, z, None) - s.y[m])),
+    }
+    r
+}
+
 /// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
 /// linear solution), in place; only the parameters marked in `free` move (all when `None`).
 fn levenberg_marquardt(
@@ -870,25 +898,8 @@ fn levenberg_marquardt(
 ) -> Result<()> {
     let np = s.params();
     let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    // Weighted residuals and the transposed Jacobian, each sample times the square root of
-    // its weight. A column of the transpose per sample: the samples are evaluated in parallel
-    // into disjoint slices (no reduction, so the result does not depend on the threads).
-    let eval = |z: &DVector<f64>, jac_t: Option<&mut DMatrix<f64>>| -> DVector<f64> {
-        let mut r = DVector::zeros(rows.len());
-        let samples = r.as_mut_slice().par_iter_mut().zip(rows).zip(&sw);
-        match jac_t {
-            Some(j) => samples
-                .zip(j.as_mut_slice().par_chunks_mut(np))
-                .with_min_len(PARALLEL_SAMPLES)
-                .for_each(|(((rk, &m), &w), col)| {
-                    *rk = w * (s.power(m, z, Some(col)) - s.y[m]);
-                    col.iter_mut().for_each(|g| *g *= w);
-                }),
-            None => samples
-                .with_min_len(PARALLEL_SAMPLES)
-                .for_each(|((rk, &m), &w)| *rk = w * (s.power(m, z, None) - s.y[m])),
-        }
-        r
+    let eval = |z: &DVector<f64>, jac_t: Option<&mut DMatrix<f64>>| {
+        weighted_residuals(s, rows, &sw, z, jac_t)
     };
     let mut jac_t = DMatrix::zeros(np, rows.len());
     let mut r = eval(z, Some(&mut jac_t));
@@ -966,19 +977,9 @@ fn lm_statistics(
     z: &DVector<f64>,
 ) -> Result<(Estimate, DMatrix<f64>)> {
     let np = s.params();
+    let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let mut jac_t = DMatrix::zeros(np, rows.len());
-    let mut r = DVector::zeros(rows.len());
-    r.as_mut_slice()
-        .par_iter_mut()
-        .zip(rows)
-        .zip(weights)
-        .zip(jac_t.as_mut_slice().par_chunks_mut(np))
-        .with_min_len(PARALLEL_SAMPLES)
-        .for_each(|(((rk, &m), &w), col)| {
-            let w = w.sqrt();
-            *rk = w * (s.power(m, z, Some(col)) - s.y[m]);
-            col.iter_mut().for_each(|g| *g *= w);
-        });
+    let r = weighted_residuals(s, rows, &sw, z, Some(&mut jac_t));
     let names = s.names(template);
     // Statistics of the final linearisation over the parameters it moves (`J z - r` are its
     // observations); a held parameter gets zero rows and columns in the covariance.
