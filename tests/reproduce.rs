@@ -36,7 +36,7 @@ fn check_schema(r: &Value) {
     for key in ["robot", "motor_model", "truth", "power_signal"] {
         assert!(r["settings"][key].is_string(), "settings.{key}");
     }
-    for key in ["dt_s", "substeps", "sample_rate_hz"] {
+    for key in ["dt_s", "substeps", "sample_rate_hz", "noise_seed"] {
         assert!(r["settings"][key].is_number(), "settings.{key}");
     }
     for key in ["noise", "quick"] {
@@ -252,9 +252,19 @@ fn heldout(r: &Value, route: &str) -> (f64, f64) {
 
 #[test]
 fn structure_matched_reproduction_predicts_held_out_motions_and_writes_everything() {
-    let (r, out) = reproduce("exact", &["--truth", "exact", "--noise", "none"]);
+    let (r, out) = reproduce(
+        "exact",
+        &["--truth", "exact", "--noise", "none", "--noise-seed", "5"],
+    );
     check_schema(&r);
     assert_eq!(r["settings"]["noise"], false);
+    // The noise seed reaches every run's logger (identification run 1 is run 100).
+    assert_eq!(r["settings"]["noise_seed"], 5);
+    let meta: Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("datasets/identification_1/meta.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(meta["measurement"]["seed"], 105);
     assert_eq!(r["settings"]["truth"], "exact");
     // Held out (12 motions, quick identification set): the commanded plan within 1 %, the
     // 10 Hz log within 1.5 % (measured: 0.07 / 0.69 % and 0.08 / 0.37 % with the full set).

@@ -210,13 +210,14 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     let _ = writeln!(
         w,
         "Robot `{}`; twin motor model `{}`, physics step {} ms with {} substeps; logger {} Hz, \
-         noise {}{}; truth `{}`, logged power `{}`. Written by {} {} in {:.1} s.\n",
+         noise {} (seed {}){}; truth `{}`, logged power `{}`. Written by {} {} in {:.1} s.\n",
         st.robot,
         st.motor_model,
         st.dt_s * 1e3,
         st.substeps,
         st.sample_rate_hz,
-        if st.noise { "on (defaults)" } else { "off" },
+        if st.noise { "on" } else { "off" },
+        st.noise_seed,
         if st.quick { "; `--quick` run" } else { "" },
         st.truth,
         st.power_signal,

@@ -131,6 +131,8 @@ pub struct Settings {
     pub sample_rate_hz: f64,
     /// Whether measurement noise was on.
     pub noise: bool,
+    /// Seed of the sensor noise and the controller's nominal-model error (`--noise-seed`).
+    pub noise_seed: u64,
     /// Whether this was a `--quick` run.
     pub quick: bool,
 }
