@@ -258,13 +258,15 @@ fn structure_matched_reproduction_predicts_held_out_motions_and_writes_everythin
     );
     check_schema(&r);
     assert_eq!(r["settings"]["noise"], false);
-    // The noise seed reaches every run's logger (identification run 1 is run 100).
+    // The noise seed reaches the runs' loggers (identification run 1 is run 100, its logger
+    // seeded 100 + the noise seed) and the controller's nominal model.
     assert_eq!(r["settings"]["noise_seed"], 5);
     let meta: Value = serde_json::from_str(
         &std::fs::read_to_string(out.join("datasets/identification_1/meta.json")).unwrap(),
     )
     .unwrap();
     assert_eq!(meta["measurement"]["seed"], 105);
+    assert_eq!(meta["twin"]["nominal_seed"], 5);
     assert_eq!(r["settings"]["truth"], "exact");
     // Held out (12 motions, quick identification set): the commanded plan within 1 %, the
     // 10 Hz log within 1.5 % (measured: 0.07 / 0.69 % and 0.08 / 0.37 % with the full set).
