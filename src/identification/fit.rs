@@ -1388,6 +1388,12 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::StandardNormal;
 
+    /// Unbiased sample variance of `v` (the Monte Carlo spread of an estimate).
+    fn sample_variance(v: &[f64]) -> f64 {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64
+    }
+
     /// Pieces whose errors have variance `explained + sigma^2 + (rel A)^2`.
     fn pieces(sigma: f64, rel: f64, count: usize, seed: u64) -> Vec<Piece> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -1460,8 +1466,7 @@ mod tests {
             plain += covariance(&a, &r, &unrelated, &apart).unwrap()[(0, 0)] / draws as f64;
             est.push(x[0]);
         }
-        let mean = est.iter().sum::<f64>() / draws as f64;
-        let spread = est.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (draws - 1) as f64;
+        let spread = sample_variance(&est);
         assert!(
             (0.7..1.4).contains(&(hac / spread)),
             "HAC variance {hac:.3e} against the spread {spread:.3e}"
@@ -1499,8 +1504,7 @@ mod tests {
             independent += covariance(&a, &r, &series, &apart).unwrap()[(1, 1)] / draws as f64;
             est.push(x[1]);
         }
-        let mean = est.iter().sum::<f64>() / draws as f64;
-        let spread = est.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (draws - 1) as f64;
+        let spread = sample_variance(&est);
         assert!(
             (0.8..1.25).contains(&(together / spread)),
             "{together:.3e} against the spread {spread:.3e}"
