@@ -635,9 +635,9 @@ mod spline_route {
         // A log that begins in mid-motion: the free end follows the motion on (speed 1.2 rad/s
         // at the first sample, 0.7 at the last).
         let t: Vec<f64> = (0..30).map(|k| k as f64 * 0.1).collect();
-        let q = |s: f64| 1.2 * s - 0.25 * s * s + 0.05 * s.powi(3);
+        let q0 = |s: f64| 1.2 * s - 0.25 * s * s + 0.05 * s.powi(3);
         let dq = |s: f64| 1.2 - 0.5 * s + 0.15 * s * s;
-        let s = from_spline(&t, &[t.iter().map(|&s| q(s)).collect()]).unwrap();
+        let s = from_spline(&t, &[t.iter().map(|&s| q0(s)).collect()]).unwrap();
         for k in [0, t.len() - 1] {
             assert!(
                 (s.dq[0][k] - dq(t[k])).abs() < 1e-3,
@@ -661,6 +661,46 @@ mod spline_route {
         );
         let s = from_spline(&t, &[x]).unwrap();
         assert_eq!((s.dq[0][0], s.ddq[0][0]), (0.0, 0.0));
+        // A log that begins as the robot starts from rest at its first sample, jerk-limited
+        // on one joint (20 rad/s^3 for 0.2 s, then constant acceleration) and at constant
+        // acceleration on another: the free end's quartic through the first samples would
+        // start it moving, but the second interval moving the joints several times as far
+        // as the first shows the start, so the route starts at rest. Already moving at a
+        // quarter of the speed gained per sample, the robot is not taken for starting from
+        // rest.
+        use powertwin::identification::states::{START_FROM_REST_RATIO, starts_from_rest};
+        let (j, ramp) = (20.0, 0.2);
+        let jerk: Vec<f64> = t
+            .iter()
+            .map(|&s| match s {
+                s if s < ramp => j * s.powi(3) / 6.0,
+                s => {
+                    let u = s - ramp;
+                    j * (ramp.powi(3) / 6.0 + ramp * ramp * u / 2.0 + ramp * u * u / 2.0)
+                }
+            })
+            .collect();
+        let accel: Vec<f64> = t.iter().map(|&s| 0.3 * s * s).collect();
+        let free = quintic(&t, &jerk, End::Free, End::Free).unwrap().0[0];
+        assert!(free > 0.02, "free end {free}");
+        assert!(!unsupported_end_speed(free, jerk[1] - jerk[0], 0.1));
+        let q = vec![jerk, accel];
+        assert!(starts_from_rest(&q));
+        let s = from_spline(&t, &q).unwrap();
+        for i in 0..2 {
+            assert_eq!((s.dq[i][0], s.ddq[i][0]), (0.0, 0.0), "joint {}", i + 1);
+            assert!(s.dq[i][3] > 0.0, "joint {} moves on", i + 1);
+        }
+        let a = 0.6;
+        let moving: Vec<f64> = t
+            .iter()
+            .map(|&s| 0.25 * a * 0.1 * s + 0.5 * a * s * s)
+            .collect();
+        let ratio = (moving[2] - moving[1]) / (moving[1] - moving[0]);
+        assert!(ratio < START_FROM_REST_RATIO && ratio > 2.0, "{ratio}");
+        assert!(!starts_from_rest(&[moving]));
+        assert!(!starts_from_rest(&[t.iter().map(|&s| q0(s)).collect()]));
+        assert!(!starts_from_rest(&[vec![0.0, 0.0]]));
         // Supported: moving on at the free end's speed, or reversing within the interval.
         assert!(!unsupported_end_speed(1.0, 0.1, 0.1));
         assert!(!unsupported_end_speed(-1.0, -0.06, 0.1));
