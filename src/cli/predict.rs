@@ -27,7 +27,8 @@ pub struct PredictArgs {
     /// Model file written by `identify` (or `reproduce`'s model.json).
     #[arg(long, value_name = "MODEL.json")]
     model: PathBuf,
-    /// Dataset to predict (a twin run; its truth is shown for scoring).
+    /// Dataset to predict (a twin run; its truth over the logged span, first to last sample, is
+    /// shown for scoring).
     #[arg(
         long,
         value_name = "DIR",
@@ -93,17 +94,16 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let viz = args.viz.open(None)?;
     let data: Vec<PathBuf> = args.data.iter().cloned().collect();
     let logs = gather(&data, &args.logs, &robot, &args.payloads)?;
-    // The twin's truth, for scoring only: the energy of the logged signal.
-    let simulated = match &args.data {
-        Some(d) => {
+    // The twin's truth, for scoring only: the energy of the logged signal over the span the
+    // log covers (the prediction's), not the whole run, which goes on up to a sample period
+    // after the last logged sample.
+    let simulated = match (&args.data, logs.first()) {
+        (Some(d), Some(log)) if !log.t_s.is_empty() => {
             let ds = Dataset::read(d)?;
-            Some(if model.signal.clipped() {
-                ds.meta.summary.energy_grid_j
-            } else {
-                ds.meta.summary.energy_total_j
-            })
+            let (t0, t1) = (log.t_s[0], log.t_s[log.len() - 1]);
+            Some(ds.truth.energy_between(t0, t1, model.signal.clipped()))
         }
-        None => None,
+        _ => None,
     };
     let mut rows = Vec::new();
     let mut prepared: Vec<Prepared> = Vec::new();

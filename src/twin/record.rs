@@ -76,4 +76,19 @@ impl Recording {
     pub fn energy_grid(&self) -> f64 {
         self.p_grid.iter().sum::<f64>() * self.dt
     }
+
+    /// Energy, J, of the motor sum (or of the grid-side power when `grid`) over the rows
+    /// whose time lies in `[t0, t1)` (s): the span a log sampled from `t0` to `t1` covers.
+    /// The run goes on after its last logged sample (up to one sample period), so the whole
+    /// run's energy is more than that log's.
+    pub fn energy_between(&self, t0: f64, t1: f64, grid: bool) -> f64 {
+        let p = if grid { &self.p_grid } else { &self.p_total };
+        self.t
+            .iter()
+            .zip(p)
+            .filter(|(t, _)| **t >= t0 - 1e-9 && **t < t1 - 1e-9)
+            .map(|(_, p)| p)
+            .sum::<f64>()
+            * self.dt
+    }
 }

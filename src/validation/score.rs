@@ -206,22 +206,15 @@ pub fn heldout_motion(
     let standby_w: f64 = rig.drive.joints().iter().map(|j| j.standby_power).sum();
     let clipped = model.signal.clipped();
     let truth = &ds.truth;
-    let signal = if clipped {
-        &truth.p_grid
-    } else {
-        &truth.p_total
-    };
     // Truth over the logged span [t_0, t_last) and over the whole run.
     let log = ds.log(&format!("held-out motion {}", k + 1))?;
     let (t0, t1) = (log.t_s[0], log.t_s[log.len() - 1]);
-    let span: f64 = truth
-        .t
-        .iter()
-        .zip(signal)
-        .filter(|(t, _)| **t >= t0 - 1e-9 && **t < t1 - 1e-9)
-        .map(|(_, p)| p * dt)
-        .sum();
-    let whole: f64 = signal.iter().sum::<f64>() * dt;
+    let span = truth.energy_between(t0, t1, clipped);
+    let whole = if clipped {
+        truth.energy_grid()
+    } else {
+        truth.energy_total()
+    };
     let prepared = prepare(&log, opts.route)?;
     let eff = opts.baseline_efficiency;
     let span_s = t1 - t0;
