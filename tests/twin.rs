@@ -47,26 +47,41 @@ fn col(f: impl Fn(usize) -> f64) -> Vec<f64> {
     (0..6).map(f).collect::<Vec<_>>()
 }
 
-#[test]
-fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
+/// Each joint's RMS residual of the applied torque against exact inverse dynamics on the
+/// motion Rapier produced (the swing at the default 6 substeps), as a fraction of its RMS
+/// torque, `loaded` with the rated payload (a 7 kg steel cube 5 cm beyond the flange) or
+/// not.
+fn torque_residuals(loaded: bool) -> [f64; 6] {
+    use powertwin::model::payload::{Payload, attach};
     let robot = common::irb1200();
     let drive = drive(&robot);
     let terms = DriveTerms::from(&drive);
     let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
+    let payload = Payload::cube("rated load", 7.0, [0.0, 0.0, 0.05].into()).unwrap();
+    let (events, model) = match loaded {
+        true => (
+            vec![PayloadEvent {
+                t_s: 0.0,
+                payload: Some(payload.clone()),
+            }],
+            attach(&robot, &payload).unwrap(),
+        ),
+        false => (Vec::new(), robot.clone()),
+    };
     let (rec, report) = twin
         .run(
             &Swing {
                 duration: 10.0,
                 amp: 1.0,
             },
-            &[],
+            &events,
             &[],
         )
         .unwrap();
     assert!(report.torque_limit_hits.is_empty());
     assert!(report.max_tracking_error_rad < 2e-3, "{report:?}");
     let dt = rec.dt;
-    let mut ws = Workspace::new(&robot);
+    let mut ws = Workspace::new(&model);
     let (mut sq, mut sr) = ([0.0; 6], [0.0; 6]);
     let mut tau = [0.0; 6];
     for k in 0..rec.len() - 1 {
@@ -74,7 +89,7 @@ fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
         let qm = col(|i| 0.5 * (rec.q[i][k] + rec.q[i][k + 1]));
         let vm = col(|i| 0.5 * (rec.dq[i][k] + rec.dq[i][k + 1]));
         let am = col(|i| (rec.dq[i][k + 1] - rec.dq[i][k]) / dt);
-        rnea(&robot, &mut ws, &qm, &vm, &am, Some(&terms), &mut tau);
+        rnea(&model, &mut ws, &qm, &vm, &am, Some(&terms), &mut tau);
         for i in 0..6 {
             if vm[i].abs() >= 0.02 {
                 sq[i] += rec.tau[i][k].powi(2);
@@ -82,11 +97,33 @@ fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
             }
         }
     }
-    for i in 0..6 {
-        let rel = (sr[i] / sq[i]).sqrt();
+    std::array::from_fn(|i| (sr[i] / sq[i]).sqrt())
+}
+
+#[test]
+fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
+    // Unloaded: within the 0.02 % fidelity target on every joint (worst 0.017 %, joint 6).
+    for (i, rel) in torque_residuals(false).iter().enumerate() {
         assert!(
-            rel <= 2e-4,
+            *rel <= 2e-4,
             "joint {}: residual {:.4} % of RMS torque",
+            i + 1,
+            100.0 * rel
+        );
+    }
+    // With the rated 7 kg: joint 1 misses the target (0.060 %; 0.12 % at 3 substeps, 0.030 %
+    // at 12, first order in the substep; 0.008 N m RMS, a few mW of power), the others stay
+    // within 0.02 %. Bounded so that a loss of fidelity shows.
+    let loaded = torque_residuals(true);
+    assert!(
+        loaded[0] <= 7e-4,
+        "joint 1 loaded: {:.4} %",
+        100.0 * loaded[0]
+    );
+    for (i, rel) in loaded.iter().enumerate().skip(1) {
+        assert!(
+            *rel <= 2e-4,
+            "joint {} loaded: residual {:.4} % of RMS torque",
             i + 1,
             100.0 * rel
         );
