@@ -685,7 +685,7 @@ mod spline_route {
         assert!(free > 0.02, "free end {free}");
         assert!(!unsupported_end_speed(free, jerk[1] - jerk[0], 0.1));
         let q = vec![jerk, accel];
-        assert!(starts_from_rest(&q));
+        assert!(starts_from_rest(&t, &q));
         let s = from_spline(&t, &q).unwrap();
         for i in 0..2 {
             assert_eq!((s.dq[i][0], s.ddq[i][0]), (0.0, 0.0), "joint {}", i + 1);
@@ -698,9 +698,14 @@ mod spline_route {
             .collect();
         let ratio = (moving[2] - moving[1]) / (moving[1] - moving[0]);
         assert!(ratio < START_FROM_REST_RATIO && ratio > 2.0, "{ratio}");
-        assert!(!starts_from_rest(&[moving]));
-        assert!(!starts_from_rest(&[t.iter().map(|&s| q0(s)).collect()]));
-        assert!(!starts_from_rest(&[vec![0.0, 0.0]]));
+        assert!(!starts_from_rest(&t, &[moving]));
+        assert!(!starts_from_rest(&t, &[t.iter().map(|&s| q0(s)).collect()]));
+        assert!(!starts_from_rest(&t[..2], &[vec![0.0, 0.0]]));
+        // Uneven sampling: a robot at constant speed logged at 0, 0.05 and 0.2 s.
+        assert!(!starts_from_rest(
+            &[0.0, 0.05, 0.2],
+            &[vec![0.0, 0.05, 0.2]]
+        ));
         // Supported: moving on at the free end's speed, or reversing within the interval.
         assert!(!unsupported_end_speed(1.0, 0.1, 0.1));
         assert!(!unsupported_end_speed(-1.0, -0.06, 0.1));

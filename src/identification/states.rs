@@ -233,7 +233,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<States> {
     for &(_, first, last) in stretches.iter().filter(|r| !r.0) {
         let times = &t[first..=last];
         let len = times.len();
-        let from_rest = first > 0 || starts_from_rest(q);
+        let from_rest = first > 0 || starts_from_rest(t, q);
         for (((x, v), a), &sigma) in s.q.iter_mut().zip(&mut s.dq).zip(&mut s.ddq).zip(&sigma) {
             let samples = &x[first..=last];
             let (mut start, mut stop) = (end(from_rest), end(last < m - 1));
@@ -277,33 +277,30 @@ pub fn unsupported_end_speed(v: f64, dx: f64, h: f64) -> bool {
     dx * v.signum() < 0.5 * v.abs() * h
 }
 
-/// Least ratio of the robot's displacement over a log's second sample interval to that over
-/// its first (summed over the joints) at which a log that begins in motion counts as
-/// beginning as the robot starts from rest ([`starts_from_rest`]). A start from rest at the
-/// first sample gives 3 at constant acceleration and 7 at constant jerk (more if the start
-/// falls inside the first interval); a robot passing at constant speed gives 1. A robot
-/// already moving at `v0` and speeding up by `a` reaches 2.5 only if `v0 <= a h / 6`, so
-/// starting it at rest misplaces little.
+/// Least ratio of the robot's mean speed over a log's second sample interval to that over its
+/// first (displacements summed over the joints) at which a log that begins in motion counts
+/// as beginning as the robot starts from rest ([`starts_from_rest`]). A start from rest at
+/// the first sample gives 3 at constant acceleration and 7 at constant jerk (more if the
+/// start falls inside the first interval); a robot passing at constant speed gives 1. A
+/// robot already moving at `v0` and speeding up by `a` reaches 2.5 only if `v0 <= a h / 6`,
+/// so starting it at rest misplaces little.
 pub const START_FROM_REST_RATIO: f64 = 2.5;
 
-/// Whether a log's first samples, positions `q[i][m]` (rad) at a constant sample period,
-/// show the robot starting from rest at the first one: the second interval moves the joints
-/// at least [`START_FROM_REST_RATIO`] times as far as the first. The motion then starts at
-/// rest there instead of running on backwards beyond the log, as the free end's quartic
-/// through the first samples would have it (by up to 0.12 rad/s on the held-out
-/// benchmark's motions, and so with every joint's Coulomb torque switched on at a sample
-/// where the robot still stands: up to 6 W too much power there). Needs 3 samples.
-pub fn starts_from_rest(q: &[Vec<f64>]) -> bool {
-    let step = |k: usize| {
-        q.iter()
-            .map(|qi| {
-                qi.get(k + 1)
-                    .zip(qi.get(k))
-                    .map_or(0.0, |(b, a)| (b - a).abs())
-            })
-            .sum::<f64>()
-    };
-    let (first, second) = (step(0), step(1));
+/// Whether a log's first samples, positions `q[i][m]` (rad) at times `t[m]` (s, increasing),
+/// show the robot starting from rest at the first one: over the second interval the joints
+/// move at least [`START_FROM_REST_RATIO`] times as fast as over the first. The motion then
+/// starts at rest there instead of already moving, as the free end's quartic through the
+/// first samples would have it (by up to 0.12 rad/s on the held-out benchmark's motions,
+/// and so with every joint's Coulomb torque switched on at a sample where the robot still
+/// stands: up to 6 W too much power there). False with fewer than 3 samples (of `t` or of
+/// any joint).
+pub fn starts_from_rest(t: &[f64], q: &[Vec<f64>]) -> bool {
+    if t.len() < 3 || q.iter().any(|qi| qi.len() < 3) {
+        return false;
+    }
+    let speed =
+        |k: usize| q.iter().map(|qi| (qi[k + 1] - qi[k]).abs()).sum::<f64>() / (t[k + 1] - t[k]);
+    let (first, second) = (speed(0), speed(1));
     second > 0.0 && second >= START_FROM_REST_RATIO * first
 }
 
