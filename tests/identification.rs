@@ -591,7 +591,7 @@ mod spline_route {
     fn spline_route_holds_rests_exactly_still_at_10_and_100_hz() {
         for rate in [10.0, 100.0] {
             let (t, q, speed) = rest_move_rest(rate);
-            let s = from_spline(&t, &q).unwrap();
+            let s = from_spline(&t, &q).unwrap().states;
             let rest = rest_intervals(&t, &q);
             for (k, &tk) in t.iter().enumerate() {
                 let in_rest = (k > 0 && rest[k - 1]) || (k + 1 < t.len() && rest[k]);
@@ -637,7 +637,9 @@ mod spline_route {
         let t: Vec<f64> = (0..30).map(|k| k as f64 * 0.1).collect();
         let q0 = |s: f64| 1.2 * s - 0.25 * s * s + 0.05 * s.powi(3);
         let dq = |s: f64| 1.2 - 0.5 * s + 0.15 * s * s;
-        let s = from_spline(&t, &[t.iter().map(|&s| q0(s)).collect()]).unwrap();
+        let s = from_spline(&t, &[t.iter().map(|&s| q0(s)).collect()])
+            .unwrap()
+            .states;
         for k in [0, t.len() - 1] {
             assert!(
                 (s.dq[0][k] - dq(t[k])).abs() < 1e-3,
@@ -659,7 +661,7 @@ mod spline_route {
             unsupported_end_speed(free, x[1] - x[0], 0.1),
             "free end {free}"
         );
-        let s = from_spline(&t, &[x]).unwrap();
+        let s = from_spline(&t, &[x]).unwrap().states;
         assert_eq!((s.dq[0][0], s.ddq[0][0]), (0.0, 0.0));
         // A log that begins as the robot starts from rest at its first sample, jerk-limited
         // on one joint (20 rad/s^3 for 0.2 s, then constant acceleration) and at constant
@@ -686,7 +688,7 @@ mod spline_route {
         assert!(!unsupported_end_speed(free, jerk[1] - jerk[0], 0.1));
         let q = vec![jerk, accel];
         assert!(starts_from_rest(&t, &q));
-        let s = from_spline(&t, &q).unwrap();
+        let s = from_spline(&t, &q).unwrap().states;
         for i in 0..2 {
             assert_eq!((s.dq[i][0], s.ddq[i][0]), (0.0, 0.0), "joint {}", i + 1);
             assert!(s.dq[i][3] > 0.0, "joint {} moves on", i + 1);
@@ -712,6 +714,84 @@ mod spline_route {
         assert!(unsupported_end_speed(1.0, 0.04, 0.1));
         assert!(unsupported_end_speed(-0.3, 0.001, 0.1));
         assert!(!unsupported_end_speed(0.0, 0.0, 0.1));
+    }
+
+    #[test]
+    fn spline_route_leaves_and_reaches_rests_inside_sample_intervals() {
+        // A 1 s minimum-jerk move (it leaves and reaches rest as (t - t0)^3, like a
+        // jerk-limited plan) of 1.2 and 0.4 rad, logged at 10 Hz with 1e-5 rad of encoder
+        // noise. (start, stop) = (1.08, 2.08): the start 20 ms before a sample (which has
+        // moved 1e-4 rad, within the rest test), the stop 20 ms before the next rest sample;
+        // (1.12, 2.12): the start 20 ms after a sample, the stop 20 ms after one (which is
+        // 1e-4 rad short of the rest).
+        let mut rng = common::rng(11);
+        for (start, stop) in [(1.08, 2.08), (1.12, 2.12)] {
+            let t: Vec<f64> = (0..=32).map(|k| k as f64 * 0.1).collect();
+            let pos = |s: f64| {
+                let u = ((s - start) / (stop - start)).clamp(0.0, 1.0);
+                10.0 * u.powi(3) - 15.0 * u.powi(4) + 6.0 * u.powi(5)
+            };
+            let q: Vec<Vec<f64>> = [1.2, 0.4]
+                .iter()
+                .map(|amp| {
+                    t.iter()
+                        .map(|&s| {
+                            amp * pos(s) + 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64)
+                        })
+                        .collect()
+                })
+                .collect();
+            let route = from_spline(&t, &q).unwrap();
+            // The route leaves and reaches the rests within 10 ms of the move (the law is exact
+            // for a cubic; the minimum-jerk move departs from it by 80-180 ms from its ends),
+            // at rest there;
+            // the knots are the samples and those two instants.
+            let k = &route.knots;
+            assert_eq!(k.len(), t.len() + 2, "{start} s: knots {:?}", k.t);
+            let extra: Vec<usize> = (0..k.len())
+                .filter(|&j| !t.iter().any(|&s| s == k.t[j]))
+                .collect();
+            assert_eq!(extra.len(), 2);
+            for (&j, want) in extra.iter().zip([start, stop]) {
+                eprintln!(
+                    "{start} s move: knot at {:.4} s, the move at {want} s",
+                    k.t[j]
+                );
+                assert!(
+                    (k.t[j] - want).abs() < 1e-2,
+                    "{start} s move: knot at {} s, the move at {want} s",
+                    k.t[j]
+                );
+                assert_eq!((k.dq[0][j], k.ddq[0][j]), (0.0, 0.0));
+            }
+            // Every sample inside the move moves forward; every sample outside stands still,
+            // held at its rest.
+            let s = &route.states;
+            for (m, &tm) in t.iter().enumerate() {
+                if tm > start && tm < stop {
+                    assert!(s.dq[0][m] > 0.0, "{start} s move, {tm} s: {}", s.dq[0][m]);
+                } else {
+                    assert_eq!(s.dq[0][m], 0.0, "{start} s move, {tm} s");
+                    let held = if tm < start { s.q[0][0] } else { s.q[0][32] };
+                    assert_eq!(s.q[0][m], held, "{start} s move, {tm} s");
+                }
+            }
+        }
+        // Joints that do not start together: joint 1 creeps off the rest from 1.0 s, joint 2
+        // (the larger motion) starts at 1.15 s. Joint 1, clearly moved at 1.1 s, keeps the
+        // route from leaving the rest inside (1.0, 1.1) s, where the joints' pooled ratio
+        // would put it (at 1.05 s, hurrying joint 1).
+        let t: Vec<f64> = (0..=20).map(|k| k as f64 * 0.1).collect();
+        let q = vec![
+            t.iter()
+                .map(|&s| 5e-3 * (s - 1.0).max(0.0))
+                .collect::<Vec<_>>(),
+            t.iter()
+                .map(|&s| 20.0 * (s - 1.15).max(0.0).powi(3))
+                .collect(),
+        ];
+        let route = from_spline(&t, &q).unwrap();
+        assert_eq!(route.knots.t, t, "no knot inside a sample interval");
     }
 
     #[test]

@@ -170,9 +170,9 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
             (from_fourier(&series, t), Box::new(series))
         }
         Route::Spline => {
-            let s = from_spline(t, q)?;
-            let m = sampled(&s)?;
-            (s, m)
+            let route = from_spline(t, q)?;
+            let m = sampled(&route.knots)?;
+            (route.states, m)
         }
         Route::Smoothing { window, degree } => {
             let mut s = from_smoothing(t, q, window, degree)?;
