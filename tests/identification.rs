@@ -791,6 +791,95 @@ mod spline_route {
     }
 
     #[test]
+    fn spline_route_knots_are_a_valid_route_for_any_log() {
+        // Random logs of 1-3 joints: rests and minimum-jerk moves of random lengths and
+        // amplitudes (some below the noise), logged at 10-1000 Hz with jittered clocks and
+        // 0-3e-5 rad of noise. The route's knots must hold every sample time, increase
+        // strictly, be finite and at rest wherever they are not samples, and interpolate.
+        use powertwin::trajectory::sampled::Sampled;
+        let mut rng = common::rng(21);
+        let mut inside = 0;
+        for case in 0..300 {
+            let rate = [10.0, 10.0, 25.0, 100.0, 1000.0][case % 5];
+            let n = 1 + case % 3;
+            let noise = [0.0, 1e-5, 3e-5][case % 3];
+            // Segments: (duration s, moves?).
+            let mut segments = Vec::new();
+            let mut total = 0.0;
+            while total < 3.0 {
+                let d: f64 = rng.random_range(0.05..1.2);
+                segments.push((total, d, rng.random_range(0.0..1.0) < 0.5));
+                total += d;
+            }
+            let amps: Vec<Vec<f64>> = segments
+                .iter()
+                .map(|_| {
+                    (0..n)
+                        .map(|_| rng.random_range(-0.5..0.5f64).powi(3))
+                        .collect()
+                })
+                .collect();
+            let pos = |s: f64, i: usize| {
+                let mut x = 0.0;
+                for ((t0, d, moves), amp) in segments.iter().zip(&amps) {
+                    if *moves && s > *t0 {
+                        let u = ((s - t0) / d).min(1.0);
+                        x += amp[i] * (10.0 * u.powi(3) - 15.0 * u.powi(4) + 6.0 * u.powi(5));
+                    }
+                }
+                x
+            };
+            let mut t = vec![0.0];
+            while *t.last().unwrap() < total {
+                let h = (1.0 + rng.random_range(-0.3..0.3)) / rate;
+                t.push(t.last().unwrap() + h);
+            }
+            let q: Vec<Vec<f64>> = (0..n)
+                .map(|i| {
+                    t.iter()
+                        .map(|&s| pos(s, i) + noise * rng.random_range(-1.7..1.7))
+                        .collect()
+                })
+                .collect();
+            let route = from_spline(&t, &q).unwrap_or_else(|e| panic!("case {case}: {e}"));
+            let k = &route.knots;
+            assert_eq!(route.states.t, t, "case {case}");
+            assert!(
+                k.t.windows(2).all(|w| w[1] > w[0]),
+                "case {case}: {:?}",
+                k.t
+            );
+            let mut samples = 0;
+            for (j, &at) in k.t.iter().enumerate() {
+                let on_sample = t.get(samples) == Some(&at);
+                for i in 0..n {
+                    assert!(
+                        k.q[i][j].is_finite() && k.dq[i][j].is_finite(),
+                        "case {case}"
+                    );
+                    if !on_sample {
+                        assert_eq!((k.dq[i][j], k.ddq[i][j]), (0.0, 0.0), "case {case}");
+                    }
+                }
+                samples += usize::from(on_sample);
+            }
+            assert_eq!(samples, t.len(), "case {case}: every sample time is a knot");
+            inside += k.len() - t.len();
+            Sampled::new(
+                k.t.clone(),
+                k.q.clone(),
+                Some(k.dq.clone()),
+                Some(k.ddq.clone()),
+            )
+            .unwrap_or_else(|e| panic!("case {case}: {e}"));
+        }
+        assert!(
+            inside >= 100,
+            "{inside} starts and stops inside sample intervals"
+        );
+    }
+
+    #[test]
     fn jerk_gram_and_the_smoothing_spline() {
         use powertwin::identification::spline::{jerk_gram, smooth};
         // Rest to rest over h: the minimum-jerk profile's squared jerk is 720 dx^2 / h^5; a
