@@ -350,8 +350,8 @@ struct Edge {
     held: Vec<f64>,
 }
 
-/// First sample of the rest after the rest stretch ending at sample `last` (the log's last
-/// sample if none).
+/// First sample of the rest after the rest stretch ending at sample `last` (`usize::MAX` if
+/// none).
 fn next_rest(stretches: &[(bool, usize, usize)], last: usize) -> usize {
     stretches
         .iter()
@@ -369,7 +369,7 @@ fn previous_rest(stretches: &[(bool, usize, usize)], first: usize) -> usize {
 }
 
 /// Noise-normalised shift (standard deviations) at which a rest's edge sample counts as
-/// already moved off the rest, toward the motion next to it ([`edge_moved`]). Seven
+/// already moved off the rest, toward the motion next to it ([`from_spline`]). Seven
 /// standard deviations of one joint pass for rest ([`REST_WINDOW_S`]); the shift here is
 /// weighed over all joints along the motion's direction, so a start 10-30 ms before a sample
 /// at 10 Hz shows (on the held-out benchmark's worst, 24 ms: 8.9 deviations), where the rest
