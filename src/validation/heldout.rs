@@ -32,7 +32,8 @@ use crate::validation::rig::{Progress, Rig};
 use crate::validation::score::{self, MotionResult, RouteSummary, Spread};
 
 /// Route from a logged stream to states for prediction: rests held still and the least-jerk
-/// quintic spline through the samples between them, smoothed for the log's own encoder noise
+/// quintic spline through the samples between them, smoothed for the log's own encoder noise,
+/// leaving and reaching each rest inside a sample interval where the displacements place it
 /// ([`crate::identification::states::from_spline`]).
 pub const LOG_ROUTE: Route = Route::Spline;
 
