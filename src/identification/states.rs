@@ -6,7 +6,8 @@
 //! - [`from_spline`]: the general route for any motion: rests found in the log are held
 //!   exactly still, and each motion between them is the least-jerk quintic spline through the
 //!   samples ([`crate::identification::spline`]), starting and stopping with zero velocity
-//!   and acceleration;
+//!   and acceleration at instants the displacements place inside the sample intervals next
+//!   to the rests ([`SplineRoute::knots`]);
 //! - [`from_smoothing`]: a local polynomial least-squares fit (Savitzky–Golay) around each
 //!   sample, differentiated analytically. Near the ends the window is shifted inwards, so no
 //!   sample is lost.
