@@ -67,9 +67,9 @@ pub struct ReproduceArgs {
     #[arg(long, default_value_t = 0)]
     noise_seed: u64,
     /// Rapier substeps per 1 ms physics step, as `simulate`. The worst joint's torque residual
-    /// against exact inverse dynamics on Rapier's motion (tests/twin.rs swing) is 0.017 % at
-    /// 6, within the 0.02 % fidelity target (with the rated 7 kg, joint 1's is 0.060 %);
-    /// 3 (0.033 %) saves about 5 s of the run.
+    /// against exact inverse dynamics on Rapier's motion (tests/twin.rs swing, with and
+    /// without the rated 7 kg) is 0.017 % at 6, within the 0.02 % fidelity target; 3
+    /// (0.033 %) saves a few seconds of the run.
     #[arg(long, default_value_t = 6)]
     substeps: usize,
     /// Table format of the datasets.
