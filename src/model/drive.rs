@@ -89,8 +89,9 @@ impl Unmodelled {
         self.iron_hysteresis * dq.abs() + self.iron_eddy * dq * dq
     }
 
-    /// Friction-loss torque bound (N m) at speed `dq` (rad/s) with transmitted torque `tau`
-    /// (N m), for Coulomb friction `coulomb` (N m): Stribeck plus gear friction.
+    /// Dry friction torque (N m) at speed `dq` (rad/s) with transmitted torque `tau` (N m),
+    /// for Coulomb friction `coulomb` (N m): Stribeck plus gear friction (the twin's sliding
+    /// torque, or its stiction bound at rest).
     #[inline]
     pub fn friction(&self, coulomb: f64, dq: f64, tau: f64) -> f64 {
         let stribeck = match self.stribeck_static {
