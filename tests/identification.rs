@@ -377,6 +377,84 @@ fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
     assert!((25..50).any(|k| (1..6).any(|i| still[i][k] != joints[i][k])));
 }
 
+/// A motion unsure of a joint's Coulomb sign (`coulomb_signs` weighed down to `s`) gets the
+/// expected power of a sign that is +1 with chance `(1 + s) / 2`: the mean of the powers
+/// with either sign, for the model evaluated at the same state.
+#[test]
+fn an_unsure_coulomb_sign_gets_the_expected_power() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
+    use powertwin::identification::model::PowerModel;
+    use powertwin::trajectory::Trajectory;
+    /// A constant state whose Coulomb signs are `signs` (for speeds of either sign).
+    struct Fixed {
+        q: Vec<f64>,
+        dq: Vec<f64>,
+        signs: Option<Vec<f64>>,
+    }
+    impl Trajectory for Fixed {
+        fn dof(&self) -> usize {
+            6
+        }
+        fn duration(&self) -> f64 {
+            1.0
+        }
+        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+            q.copy_from_slice(&self.q);
+            dq.copy_from_slice(&self.dq);
+            ddq.fill(0.0);
+        }
+        fn coulomb_signs(&self, _t: f64, dq: &[f64], s: &mut [f64]) {
+            match &self.signs {
+                Some(signs) => s.copy_from_slice(signs),
+                None => {
+                    for (si, v) in s.iter_mut().zip(dq) {
+                        *si = v.signum();
+                    }
+                }
+            }
+        }
+    }
+    let robot = common::irb1200();
+    let layout = ParamLayout::new(&robot, true, true);
+    let mut model = PowerModel::new(&robot, layout, false).unwrap();
+    let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
+    model.theta = bp
+        .base_values(&layout.theta(&robot, &common::drive_terms(6)))
+        .unwrap();
+    model.copper = vec![0.01; 6];
+    let q = vec![0.1, 0.5, -0.4, 0.3, 0.8, 0.2];
+    let slow = vec![0.3, 2e-4, -0.2, 0.4, -0.5, 0.6];
+    let power = |dq2: f64, signs: Option<Vec<f64>>| {
+        let mut dq = slow.clone();
+        dq[1] = dq2;
+        let traj = Fixed {
+            q: q.clone(),
+            dq,
+            signs,
+        };
+        model
+            .power_with_payloads(&robot, &traj, &[], 1.0, &[0.5])
+            .unwrap()[0]
+    };
+    let mut signs: Vec<f64> = slow.iter().map(|v: &f64| v.signum()).collect();
+    // The shoulder's sign as given, and its sign flipped at the same speed (the regressor's
+    // other columns hardly see 2e-4 rad/s).
+    let plus = power(2e-4, None);
+    signs[1] = -1.0;
+    let minus = power(2e-4, Some(signs.clone()));
+    assert!((plus - minus).abs() > 1.0, "{plus} {minus}");
+    for s in [-0.6, 0.0, 0.25, 1.0] {
+        signs[1] = s;
+        let expected = 0.5 * (1.0 + s) * plus + 0.5 * (1.0 - s) * minus;
+        let got = power(2e-4, Some(signs.clone()));
+        assert!(
+            (got - expected).abs() < 1e-9,
+            "s = {s}: {got} W, expected {expected} W"
+        );
+    }
+}
+
 /// The PMSM fit with a copper coefficient the data push below its bound of 0 (joint 4's
 /// drawn at -0.2 W/(N m)^2) converges to the bounded least-squares optimum: the coefficient
 /// sits on the bound, raising it raises the cost, and no fitted parameter lowers the cost to
@@ -714,6 +792,62 @@ mod spline_route {
         assert!(unsupported_end_speed(1.0, 0.04, 0.1));
         assert!(unsupported_end_speed(-0.3, 0.001, 0.1));
         assert!(!unsupported_end_speed(0.0, 0.0, 0.1));
+    }
+
+    #[test]
+    fn spline_route_weighs_down_the_coulomb_sign_of_a_joint_standing_still() {
+        // 10 Hz, 1e-5 rad of encoder noise (uniform), 12 s. Joint 1 swings throughout; joint 2
+        // swings for 6 s and then stands still (held by stiction); joint 3 creeps at 2e-3
+        // rad/s throughout; the robot rests for the last 2 s.
+        let mut rng = common::rng(5);
+        let mut noise = || 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64);
+        let t: Vec<f64> = (0..=120).map(|k| k as f64 * 0.1).collect();
+        let moving = |s: f64| s.min(10.0);
+        let q: Vec<Vec<f64>> = vec![
+            t.iter()
+                .map(|&s| 0.5 * (1.0 - (0.6 * moving(s)).cos()) + noise())
+                .collect(),
+            t.iter()
+                .map(|&s| 0.3 * (1.0 - (0.5 * s.min(2.0 * std::f64::consts::PI)).cos()) + noise())
+                .collect(),
+            t.iter().map(|&s| 2e-3 * moving(s) + noise()).collect(),
+        ];
+        let route = from_spline(&t, &q).unwrap();
+        let w = &route.move_weights;
+        assert_eq!(route.knots.t.len(), w[0].len());
+        let at = |i: usize, time: f64| {
+            let k = route
+                .knots
+                .t
+                .iter()
+                .position(|&x| (x - time).abs() < 1e-9)
+                .unwrap();
+            w[i][k]
+        };
+        let samples = |from: f64, to: f64| t.iter().copied().filter(move |&s| s >= from && s <= to);
+        // Moving joints, the creeping one included, count fully: the slope over three
+        // samples is many standard deviations of the noise's.
+        for s in samples(0.3, 9.7) {
+            assert_eq!(at(0, s), 1.0, "joint 1 at {s} s");
+            assert_eq!(at(2, s), 1.0, "joint 3 at {s} s");
+        }
+        // The joint standing still among moving ones: weight 0 at most of its samples (noise
+        // alone stays within 2 standard deviations 95 % of the time).
+        let still: Vec<f64> = samples(6.8, 9.7).map(|s| at(1, s)).collect();
+        let mean = still.iter().sum::<f64>() / still.len() as f64;
+        assert!(mean < 0.15, "mean weight {mean} over {still:?}");
+        assert!(still.iter().filter(|&&x| x == 0.0).count() * 4 >= still.len() * 3);
+        // While it swings it counts fully.
+        assert!(samples(0.5, 2.5).all(|s| at(1, s) == 1.0));
+        // At the rest the route's speed is 0 and the weight 1 (no weight falling across the
+        // interval next to a rest).
+        for s in samples(10.5, 12.0) {
+            assert_eq!(
+                route.knots.dq[0][route.knots.t.iter().position(|&x| x == s).unwrap()],
+                0.0
+            );
+            assert_eq!(at(0, s), 1.0);
+        }
     }
 
     #[test]

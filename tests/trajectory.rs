@@ -113,6 +113,44 @@ fn sampled_passes_through_every_sample() {
 }
 
 #[test]
+fn sampled_move_weights_scale_the_coulomb_signs_linearly_between_samples() {
+    // Two joints moving in opposite directions through three samples.
+    let t = vec![0.0, 0.1, 0.2];
+    let q = vec![vec![0.0, 0.01, 0.02], vec![0.0, -0.01, -0.02]];
+    let s = Sampled::new(t.clone(), q.clone(), None, None).unwrap();
+    let mut signs = [0.0; 2];
+    // Without weights: the signs of the speeds.
+    s.coulomb_signs(0.05, &[0.1, -0.1], &mut signs);
+    assert_eq!(signs, [1.0, -1.0]);
+    let s = s
+        .with_move_weights(vec![vec![1.0, 0.0, 0.5], vec![0.2, 0.2, 1.0]])
+        .unwrap();
+    s.coulomb_signs(0.05, &[0.1, -0.1], &mut signs);
+    assert!(
+        (signs[0] - 0.5).abs() < 1e-12 && (signs[1] + 0.2).abs() < 1e-12,
+        "{signs:?}"
+    );
+    s.coulomb_signs(0.15, &[0.1, -0.1], &mut signs);
+    assert!(
+        (signs[0] - 0.25).abs() < 1e-12 && (signs[1] + 0.6).abs() < 1e-12,
+        "{signs:?}"
+    );
+    // A joint at rest has no sign to weigh.
+    s.coulomb_signs(0.15, &[0.0, -0.1], &mut signs);
+    assert_eq!(signs[0], 0.0);
+    // Bad weights are errors.
+    let base = || Sampled::new(t.clone(), q.clone(), None, None).unwrap();
+    for bad in [
+        vec![vec![1.0; 3]],
+        vec![vec![1.0; 2], vec![1.0; 3]],
+        vec![vec![1.0, 1.5, 1.0], vec![1.0; 3]],
+        vec![vec![1.0, f64::NAN, 1.0], vec![1.0; 3]],
+    ] {
+        assert!(base().with_move_weights(bad).is_err());
+    }
+}
+
+#[test]
 fn sampled_reproduces_a_smooth_function() {
     // sin(t) on [0, 2 pi] at 41 samples (h = 0.157 s).
     let n = 41;

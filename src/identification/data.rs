@@ -171,8 +171,17 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
         }
         Route::Spline => {
             let route = from_spline(t, q)?;
-            let m = sampled(&route.knots)?;
-            (route.states, m)
+            let k = &route.knots;
+            let m = Sampled::new(
+                k.t.clone(),
+                k.q.clone(),
+                Some(k.dq.clone()),
+                Some(k.ddq.clone()),
+            )?;
+            (
+                route.states,
+                Box::new(m.with_move_weights(route.move_weights)?),
+            )
         }
         Route::Smoothing { window, degree } => {
             let mut s = from_smoothing(t, q, window, degree)?;

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
-use crate::dynamics::{ParamLayout, Workspace};
+use crate::dynamics::{ParamLayout, Workspace, sign};
 use crate::error::{Error, Result};
 use crate::measurement::PowerSignal;
 use crate::model::Robot;
@@ -333,7 +333,9 @@ impl PowerModel {
     }
 
     /// Call `f` with each state's evaluation at the times `t`, with the payload model in
-    /// force then.
+    /// force then. The Coulomb friction takes the trajectory's expected signs
+    /// ([`Trajectory::coulomb_signs`]; for a motion estimated from a log, weighed down where a
+    /// joint is not seen to move), and an unsure sign adds its variance to the copper loss.
     fn each_state(
         &self,
         robot: &Robot,
@@ -359,7 +361,8 @@ impl PowerModel {
         let mut ws = Workspace::new(robot);
         let mut w = DMatrix::zeros(n, self.layout.len());
         let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let mut p = vec![0.0; n];
+        let (mut p, mut signs, mut unsure) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let coulomb = self.coulomb_params();
         for &t in t {
             let model = models
                 .iter()
@@ -367,14 +370,26 @@ impl PowerModel {
                 .find(|(from, _)| *from <= t)
                 .map_or(self, |(_, m)| m);
             traj.sample(t, &mut q, &mut dq, &mut ddq);
+            traj.coulomb_signs(t, &dq, &mut signs);
             regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
-            for (i, pi) in p.iter_mut().enumerate() {
-                *pi = model.joint_power(&w, i, dq[i]);
+            for i in 0..n {
+                // A moving joint's Coulomb sign the motion is unsure of, `s` in (-1, 1): the
+                // expected torque has `fc s`, and its expected square is `fc^2 (1 - s^2)` more
+                // than the expected torque's square.
+                unsure[i] = 0.0;
+                if let Some((c, k)) = coulomb[i] {
+                    w[(i, c)] = signs[i];
+                    if sign(dq[i]) != 0.0 {
+                        unsure[i] = model.theta[k].powi(2) * (1.0 - signs[i] * signs[i]);
+                    }
+                }
+                p[i] = model.joint_power(&w, i, dq[i]) + model.copper[i] * unsure[i];
             }
             f(&StateEval {
                 p: &p,
                 w: &w,
                 dq: &dq,
+                unsure: &unsure,
                 model,
             });
         }
@@ -410,6 +425,7 @@ impl PowerModel {
         let (mut motor, mut grid, mut active) = (0.0, 0.0, 0.0);
         let standby: f64 = self.constant.iter().sum();
         let mut g = vec![0.0; np];
+        let coulomb = self.coulomb_params();
         let mut k = 0usize;
         self.each_state(robot, traj, events, efficiency, &t, |e| {
             let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
@@ -428,7 +444,13 @@ impl PowerModel {
                 for (kk, &c) in self.columns.iter().enumerate() {
                     g[kk] += weight * dp_dtau * e.w[(i, c)];
                 }
-                g[nb + i] += weight * tau * tau;
+                g[nb + i] += weight * (tau * tau + e.unsure[i]);
+                // `unsure` is `fc^2 (1 - s^2)`, quadratic in the Coulomb parameter.
+                if let Some((_, kc)) = coulomb[i]
+                    && e.model.theta[kc] != 0.0
+                {
+                    g[kc] += weight * 2.0 * e.model.copper[i] * e.unsure[i] / e.model.theta[kc];
+                }
             }
             g[np - 1] += weight;
         })?;
@@ -453,6 +475,17 @@ impl PowerModel {
         })
     }
 
+    /// Each joint's regressor column of Coulomb friction and the index of its parameter in
+    /// `theta` (`None` without friction in the layout or the base parameters).
+    fn coulomb_params(&self) -> Vec<Option<(usize, usize)>> {
+        (0..self.layout.dof)
+            .map(|i| {
+                let c = self.layout.coulomb_col(i)?;
+                Some((c, self.columns.iter().position(|&k| k == c)?))
+            })
+            .collect()
+    }
+
     /// Joint torque of motor `i` (N m, or N m / eta when efficiency-scaled) from row `i` of
     /// the regressor `w` already evaluated at the state.
     fn torque(&self, w: &DMatrix<f64>, i: usize) -> f64 {
@@ -468,6 +501,9 @@ impl PowerModel {
 struct StateEval<'a> {
     /// Predicted power of each motor, W.
     p: &'a [f64],
+    /// Each motor's expected squared torque beyond its expected torque squared (N^2 m^2):
+    /// `fc^2 (1 - s^2)` for a Coulomb sign `s` the motion is unsure of.
+    unsure: &'a [f64],
     /// Full regressor at the state.
     w: &'a DMatrix<f64>,
     /// Joint speeds, rad/s.

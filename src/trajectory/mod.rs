@@ -27,4 +27,15 @@ pub trait Trajectory: Send + Sync {
     /// written into slices of length [`Trajectory::dof`]. Times outside `[0, duration]` are
     /// clamped. Must not allocate.
     fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]);
+    /// Expected sign of each joint's Coulomb friction at time `t` (s), given the speeds `dq`
+    /// (rad/s) [`Trajectory::sample`] gave there, written into `s` (in `[-1, 1]`, length
+    /// [`Trajectory::dof`]). The default, for a motion known exactly, is
+    /// [`crate::dynamics::sign`]`(dq)`. A motion estimated from noisy positions weighs it
+    /// down where the joint is not seen to move ([`sampled::Sampled::with_move_weights`]).
+    /// Must not allocate.
+    fn coulomb_signs(&self, _t: f64, dq: &[f64], s: &mut [f64]) {
+        for (si, &v) in s.iter_mut().zip(dq) {
+            *si = crate::dynamics::sign(v);
+        }
+    }
 }

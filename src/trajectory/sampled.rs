@@ -45,6 +45,9 @@ pub struct Sampled {
     /// interval `k` at index `i * (knots.len() - 1) + k`; units rad / s^p.
     coeffs: Vec<[f64; 6]>,
     interpolation: Interpolation,
+    /// How clearly each joint is seen to move at each sample, in `[0, 1]`, joint-major
+    /// (`[i][k]`); `None`: every moving joint fully.
+    move_weights: Option<Vec<Vec<f64>>>,
 }
 
 /// A validation failure located at a sample (0-based) or not located.
@@ -125,6 +128,42 @@ impl Sampled {
     /// `start_time + tau`.
     pub fn start_time(&self) -> f64 {
         self.start_time
+    }
+
+    /// The same motion with the expected sign of each joint's Coulomb friction
+    /// ([`Trajectory::coulomb_signs`]) weighed down by `weights[i][k]` in `[0, 1]`: how
+    /// clearly joint `i` is seen to move at sample `k` (linear between samples). An estimate
+    /// of the motion from noisy positions gives a joint that stands still while the others
+    /// move speeds of the noise's size, whose signs would switch its full Coulomb torque.
+    ///
+    /// Errors ([`Error::InvalidInput`]): not one weight per joint and sample, or a weight
+    /// outside `[0, 1]`.
+    pub fn with_move_weights(mut self, weights: Vec<Vec<f64>>) -> Result<Self> {
+        if weights.len() != self.dof || weights.iter().any(|w| w.len() != self.knots.len()) {
+            return Err(Error::InvalidInput(format!(
+                "move weights need {} joints of {} samples",
+                self.dof,
+                self.knots.len()
+            )));
+        }
+        if weights.iter().flatten().any(|w| !(0.0..=1.0).contains(w)) {
+            return Err(Error::InvalidInput("move weights must be in [0, 1]".into()));
+        }
+        self.move_weights = Some(weights);
+        Ok(self)
+    }
+
+    /// The interval `k` holding trajectory time `t` (s, clamped to the knots) and the time
+    /// from its start, s.
+    fn interval(&self, t: f64) -> (usize, f64) {
+        let intervals = self.knots.len() - 1;
+        let tau = t.clamp(0.0, self.duration());
+        let k = self
+            .knots
+            .partition_point(|&x| x <= tau)
+            .saturating_sub(1)
+            .min(intervals - 1);
+        (k, tau - self.knots[k])
     }
 
     /// The interpolant in use.
@@ -213,6 +252,7 @@ impl Sampled {
             dof,
             coeffs,
             interpolation,
+            move_weights: None,
         })
     }
 }
@@ -228,19 +268,27 @@ impl Trajectory for Sampled {
 
     fn sample(&self, t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
         let intervals = self.knots.len() - 1;
-        let tau = t.clamp(0.0, self.duration());
-        let k = self
-            .knots
-            .partition_point(|&x| x <= tau)
-            .saturating_sub(1)
-            .min(intervals - 1);
-        let s = tau - self.knots[k];
+        let (k, s) = self.interval(t);
         let outputs = q.iter_mut().zip(dq.iter_mut()).zip(ddq.iter_mut());
         for (i, ((qi, dqi), ddqi)) in outputs.enumerate().take(self.dof) {
             let [c0, c1, c2, c3, c4, c5] = self.coeffs[i * intervals + k];
             *qi = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))));
             *dqi = c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)));
             *ddqi = 2.0 * c2 + s * (6.0 * c3 + s * (12.0 * c4 + s * 20.0 * c5));
+        }
+    }
+
+    fn coulomb_signs(&self, t: f64, dq: &[f64], s: &mut [f64]) {
+        let Some(weights) = &self.move_weights else {
+            for (si, &v) in s.iter_mut().zip(dq) {
+                *si = crate::dynamics::sign(v);
+            }
+            return;
+        };
+        let (k, from_knot) = self.interval(t);
+        let f = from_knot / (self.knots[k + 1] - self.knots[k]);
+        for ((si, &v), w) in s.iter_mut().zip(dq).zip(weights) {
+            *si = crate::dynamics::sign(v) * (w[k] + f * (w[k + 1] - w[k]));
         }
     }
 }
