@@ -153,13 +153,13 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
     // The motion through the log, and the states at the sample times along it (the Fourier
     // series is fitted once and evaluated there; the spline and smoothing routes give the
     // states and interpolate them).
-    let sampled = |s: &States| -> Result<Box<dyn Trajectory>> {
-        Ok(Box::new(Sampled::new(
+    let sampled = |s: &States| {
+        Sampled::new(
             s.t.clone(),
             s.q.clone(),
             Some(s.dq.clone()),
             Some(s.ddq.clone()),
-        )?))
+        )
     };
     let (states, motion): (States, Box<dyn Trajectory>) = match route {
         Route::Fourier {
@@ -171,17 +171,8 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
         }
         Route::Spline => {
             let route = from_spline(t, q)?;
-            let k = &route.knots;
-            let m = Sampled::new(
-                k.t.clone(),
-                k.q.clone(),
-                Some(k.dq.clone()),
-                Some(k.ddq.clone()),
-            )?;
-            (
-                route.states,
-                Box::new(m.with_move_weights(route.move_weights)?),
-            )
+            let m = sampled(&route.knots)?.with_move_weights(route.move_weights)?;
+            (route.states, Box::new(m))
         }
         Route::Smoothing { window, degree } => {
             let mut s = from_smoothing(t, q, window, degree)?;
@@ -194,7 +185,7 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
                 }
             }
             let m = sampled(&s)?;
-            (s, m)
+            (s, Box::new(m))
         }
     };
     let excited: Vec<usize> = (0..n)

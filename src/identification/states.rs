@@ -346,8 +346,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
         }
     }
     let knots = with_knots(&s, &extra);
-    let weight_sigma: Vec<f64> = sigma.iter().map(|s| s.max(ASSUMED_ENCODER_NOISE)).collect();
-    let at_samples = move_weights(t, q, &s.dq, &weight_sigma);
+    let at_samples = move_weights(t, q, &s.dq, &sigma);
     // The knots are the sample times and the instants inside intervals (weight 1: the motion
     // next to them is seen from its own samples).
     let move_weights = at_samples
@@ -398,8 +397,8 @@ pub const MOVE_Z: (f64, f64) = (2.0, 4.0);
 /// `z = |b| / sd(b)` by [`MOVE_Z`], with `b` the slope (rad/s) of the straight line through
 /// the joint's logged positions `q` within [`SLOPE_HALF_WINDOW_S`] of the sample (at least
 /// one neighbour on each side) and `sd(b) = sigma_i / sqrt(sum (t - mean t)^2)` its standard
-/// deviation under the joint's encoder noise `sigma_i` (rad; without noise, 1 for any slope
-/// but 0). A joint whose route speed `dq` is 0 there gets 1 (no sign to weigh, and no
+/// deviation under the joint's encoder noise `sigma_i` (rad; the route's estimate, at least
+/// [`ASSUMED_ENCODER_NOISE`]). A joint whose route speed `dq` is 0 there gets 1 (no sign to weigh, and no
 /// weight falling across the next interval, where it may move). The slope of a parabola through
 /// the window is its speed at the sample, so a joint that moves, reversals included, gets
 /// about 1; one that stands still while the others move gets the chance that noise alone
@@ -433,11 +432,7 @@ fn move_weights(t: &[f64], q: &[Vec<f64>], dq: &[Vec<f64>], sigma: &[f64]) -> Ve
                         stt += (t[j] - tm).powi(2);
                         stx += (t[j] - tm) * (x[j] - xm);
                     }
-                    let b = stx / stt;
-                    if sd <= 0.0 {
-                        return if b == 0.0 { 0.0 } else { 1.0 };
-                    }
-                    let z = b.abs() * stt.sqrt() / sd;
+                    let z = (stx / stt).abs() * stt.sqrt() / sd.max(ASSUMED_ENCODER_NOISE);
                     ((z - MOVE_Z.0) / (MOVE_Z.1 - MOVE_Z.0)).clamp(0.0, 1.0)
                 })
                 .collect()
