@@ -31,7 +31,8 @@ fn heldout(w: &mut String, r: &Results) {
          point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
          10 Hz log of each (rests held still, the least-jerk spline through the positions \
          between them, leaving and reaching each rest where the displacements place it inside \
-         a sample interval) and from the commanded trajectory. The baseline is what a user has \
+         a sample interval; the Coulomb sign of a joint not seen to move weighed down) and from \
+         the commanded trajectory. The baseline is what a user has \
          without identification: the URDF's rigid bodies and friction with the data-sheet \
          efficiency. The twin's truth only scores.\n",
         m.name,
