@@ -346,7 +346,14 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
         }
     }
     let knots = with_knots(&s, &extra);
-    let at_samples = move_weights(t, q, &s.dq, &sigma);
+    // The noise the log shows at its rests; where it has none to show, at least the assumed.
+    let floor = if rests_show_noise(&rest) {
+        0.0
+    } else {
+        ASSUMED_ENCODER_NOISE
+    };
+    let noise: Vec<f64> = sigma.iter().map(|s| s.max(floor)).collect();
+    let at_samples = move_weights(t, q, &s.dq, &noise);
     // The knots are the sample times and the instants inside intervals (weight 1: the motion
     // next to them is seen from its own samples).
     let move_weights = at_samples
@@ -376,8 +383,8 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
 
 /// Encoder noise (rad) the rest test is built for ([`REST_SPEED`] x [`REST_WINDOW_S`] is
 /// seven standard deviations of the difference of two samples): [`move_weights`] assumes at
-/// least this much, as a log whose joints never stand still does not show its own
-/// ([`noise_levels`] is then 0).
+/// least this much where the log has no rests to show its own ([`noise_levels`] then
+/// estimates it from each joint's differences, and gives 0 where the motion hides it).
 pub const ASSUMED_ENCODER_NOISE: f64 =
     REST_SPEED * REST_WINDOW_S / (7.0 * std::f64::consts::SQRT_2);
 
@@ -397,8 +404,8 @@ pub const MOVE_Z: (f64, f64) = (2.0, 4.0);
 /// `z = |b| / sd(b)` by [`MOVE_Z`], with `b` the slope (rad/s) of the straight line through
 /// the joint's logged positions `q` within [`SLOPE_HALF_WINDOW_S`] of the sample (at least
 /// one neighbour on each side) and `sd(b) = sigma_i / sqrt(sum (t - mean t)^2)` its standard
-/// deviation under the joint's encoder noise `sigma_i` (rad; the route's estimate, at least
-/// [`ASSUMED_ENCODER_NOISE`]). A joint whose route speed `dq` is 0 there gets 1 (no sign to weigh, and no
+/// deviation under the joint's encoder noise `sigma_i` (rad; `z` is infinite for any slope
+/// but 0 without noise). A joint whose route speed `dq` is 0 there gets 1 (no sign to weigh, and no
 /// weight falling across the next interval, where it may move). The slope of a parabola through
 /// the window is its speed at the sample, so a joint that moves, reversals included, gets
 /// about 1; one that stands still while the others move gets the chance that noise alone
@@ -432,7 +439,12 @@ fn move_weights(t: &[f64], q: &[Vec<f64>], dq: &[Vec<f64>], sigma: &[f64]) -> Ve
                         stt += (t[j] - tm).powi(2);
                         stx += (t[j] - tm) * (x[j] - xm);
                     }
-                    let z = (stx / stt).abs() * stt.sqrt() / sd.max(ASSUMED_ENCODER_NOISE);
+                    // Without noise any slope but 0 is a motion.
+                    let z = match (stx / stt).abs() * stt.sqrt() {
+                        0.0 => 0.0,
+                        b if sd == 0.0 => b * f64::INFINITY,
+                        b => b / sd,
+                    };
                     ((z - MOVE_Z.0) / (MOVE_Z.1 - MOVE_Z.0)).clamp(0.0, 1.0)
                 })
                 .collect()
@@ -732,13 +744,9 @@ fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 /// joint smoothed the others' ends away (power RMSE 3.85 W on that benchmark, 2.45 W joint by
 /// joint).
 pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
-    let rests: Vec<(usize, usize)> = stretches(rest)
-        .into_iter()
-        .filter(|r| r.0)
-        .map(|r| (r.1, r.2))
-        .collect();
+    let rests = rest_spans(rest);
     let in_rests: usize = rests.iter().map(|(a, b)| b - a + 1).sum();
-    if in_rests < rests.len() + MIN_REST_DOF {
+    if !rests_show_noise(rest) {
         // No rest to watch the encoders alone: each joint by its own differences.
         return q
             .iter()
@@ -769,6 +777,22 @@ pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
             (ss / (in_rests - rests.len()) as f64).sqrt()
         })
         .collect()
+}
+
+/// The rests' first and last samples.
+fn rest_spans(rest: &[bool]) -> Vec<(usize, usize)> {
+    stretches(rest)
+        .into_iter()
+        .filter(|r| r.0)
+        .map(|r| (r.1, r.2))
+        .collect()
+}
+
+/// Whether the rests hold at least [`MIN_REST_DOF`] degrees of freedom, so that
+/// [`noise_levels`] measures the encoders there.
+fn rests_show_noise(rest: &[bool]) -> bool {
+    let rests = rest_spans(rest);
+    rests.iter().map(|(a, b)| b - a + 1).sum::<usize>() >= rests.len() + MIN_REST_DOF
 }
 
 /// Check sample times (finite, strictly increasing) and position series (one per joint, as
