@@ -848,6 +848,31 @@ mod spline_route {
             );
             assert_eq!(at(0, s), 1.0);
         }
+        // Without noise (the rests show none): any slope but 0 is a motion, even 1e-5 rad/s.
+        let exact: Vec<Vec<f64>> = vec![
+            t.iter()
+                .map(|&s| 0.5 * (1.0 - (0.6 * moving(s)).cos()))
+                .collect(),
+            t.iter().map(|&s| 0.3 + 1e-5 * moving(s)).collect(),
+            t.iter()
+                .map(|&s| if s < 6.0 { 0.2 * s } else { 1.2 })
+                .collect(),
+        ];
+        let route = from_spline(&t, &exact).unwrap();
+        let k = |time: f64| {
+            route
+                .knots
+                .t
+                .iter()
+                .position(|&x| (x - time).abs() < 1e-9)
+                .unwrap()
+        };
+        for s in samples(0.3, 9.7) {
+            assert_eq!(route.move_weights[1][k(s)], 1.0, "creeping joint at {s} s");
+        }
+        for s in samples(6.3, 9.7) {
+            assert_eq!(route.move_weights[2][k(s)], 0.0, "still joint at {s} s");
+        }
     }
 
     #[test]
