@@ -329,21 +329,28 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
     assert!(err.to_string().contains("no sample"), "{err}");
 }
 
-#[test]
-fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
+/// A PMSM model of the IRB 1200 with the test drives' true base parameters, copper
+/// coefficients of 0.01 W/(N m)^2 and no standby.
+fn true_pmsm_model(robot: &powertwin::Robot) -> powertwin::identification::model::PowerModel {
     use powertwin::dynamics::ParamLayout;
     use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
     use powertwin::identification::model::PowerModel;
+    let layout = ParamLayout::new(robot, true, true);
+    let mut model = PowerModel::new(robot, layout, false).unwrap();
+    let bp = BaseParams::compute(robot, layout, &SamplingOptions::default()).unwrap();
+    model.theta = bp
+        .base_values(&layout.theta(robot, &common::drive_terms(6)))
+        .unwrap();
+    model.copper = vec![0.01; 6];
+    model
+}
+
+#[test]
+fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
     use powertwin::model::builtin;
     use powertwin::model::payload::PayloadEvent;
     let robot = common::irb1200();
-    let layout = ParamLayout::new(&robot, true, true);
-    let mut model = PowerModel::new(&robot, layout, false).unwrap();
-    let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
-    model.theta = bp
-        .base_values(&layout.theta(&robot, &common::drive_terms(6)))
-        .unwrap();
-    model.copper = vec![0.01; 6];
+    let mut model = true_pmsm_model(&robot);
     model.constant[0] = 42.0;
     let traj = random_fourier(
         &robot,
@@ -382,9 +389,6 @@ fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
 /// with either sign, for the model evaluated at the same state.
 #[test]
 fn an_unsure_coulomb_sign_gets_the_expected_power() {
-    use powertwin::dynamics::ParamLayout;
-    use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
-    use powertwin::identification::model::PowerModel;
     use powertwin::trajectory::Trajectory;
     /// A constant state whose Coulomb signs are `signs` (for speeds of either sign).
     struct Fixed {
@@ -416,13 +420,7 @@ fn an_unsure_coulomb_sign_gets_the_expected_power() {
         }
     }
     let robot = common::irb1200();
-    let layout = ParamLayout::new(&robot, true, true);
-    let mut model = PowerModel::new(&robot, layout, false).unwrap();
-    let bp = BaseParams::compute(&robot, layout, &SamplingOptions::default()).unwrap();
-    model.theta = bp
-        .base_values(&layout.theta(&robot, &common::drive_terms(6)))
-        .unwrap();
-    model.copper = vec![0.01; 6];
+    let model = true_pmsm_model(&robot);
     let q = vec![0.1, 0.5, -0.4, 0.3, 0.8, 0.2];
     let slow = vec![0.3, 2e-4, -0.2, 0.4, -0.5, 0.6];
     let power = |dq2: f64, signs: Option<Vec<f64>>| {

@@ -34,8 +34,14 @@ pub trait Trajectory: Send + Sync {
     /// down where the joint is not seen to move ([`sampled::Sampled::with_move_weights`]).
     /// Must not allocate.
     fn coulomb_signs(&self, _t: f64, dq: &[f64], s: &mut [f64]) {
-        for (si, &v) in s.iter_mut().zip(dq) {
-            *si = crate::dynamics::sign(v);
-        }
+        exact_coulomb_signs(dq, s);
+    }
+}
+
+/// The Coulomb signs of a motion known exactly: [`crate::dynamics::sign`] of each speed in
+/// `dq` (rad/s), written into `s`.
+pub fn exact_coulomb_signs(dq: &[f64], s: &mut [f64]) {
+    for (si, &v) in s.iter_mut().zip(dq) {
+        *si = crate::dynamics::sign(v);
     }
 }

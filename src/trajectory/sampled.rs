@@ -280,10 +280,7 @@ impl Trajectory for Sampled {
 
     fn coulomb_signs(&self, t: f64, dq: &[f64], s: &mut [f64]) {
         let Some(weights) = &self.move_weights else {
-            for (si, &v) in s.iter_mut().zip(dq) {
-                *si = crate::dynamics::sign(v);
-            }
-            return;
+            return super::exact_coulomb_signs(dq, s);
         };
         let (k, from_knot) = self.interval(t);
         let f = from_knot / (self.knots[k + 1] - self.knots[k]);
