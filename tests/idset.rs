@@ -182,24 +182,29 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     let exact_motors = coverage(Fidelity::Exact, true);
     let realistic = coverage(Fidelity::Realistic, true);
     eprintln!("exact {exact:?}, with each motor's power {exact_motors:?}, realistic {realistic:?}");
-    // Measured (12 motions each, 95 % intervals): exact truth from the arm's power, plan
-    // 92 % and log 100 %; the cross-validation pieces show no structure error beyond 0.13 %
-    // of the active power. Realistic truth with each motor's power: plan 83 %, log 100 %;
-    // structure 0.12 W. Mean half-widths 0.63 % and 0.56 % of the energy.
+    // Measured (12 motions each, 95 % intervals; the structure error is the posterior
+    // average over what the cross-validation pieces allow): exact truth from the arm's
+    // power, plan and log 100 %, structure 0.14 W and 0.15 % of the active power; realistic
+    // truth with each motor's power, 100 / 100 %, 0.15 W and 0.13 %. Mean half-widths 0.86 %
+    // and 0.68 % of the energy.
     assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
-    assert!(exact.4 < 0.005 && exact.3 < 0.05, "{exact:?}");
-    assert!(realistic.0 >= 80.0 && realistic.1 >= 70.0, "{realistic:?}");
+    assert!(exact.4 < 0.005 && exact.3 < 0.3, "{exact:?}");
+    assert!(realistic.0 >= 80.0 && realistic.1 >= 80.0, "{realistic:?}");
     assert!(realistic.3 > 0.1 || realistic.4 > 0.001, "{realistic:?}");
     // ... with intervals that are not vacuous.
     assert!(
         exact.2 < 1.2 && realistic.2 < 1.7,
         "{exact:?} {realistic:?}"
     );
-    // With each motor's power the exact truth's errors shrink (worst from the plan 0.66 %
-    // for 1.10 %) and so do its intervals (mean half-width 0.26 %), more than the errors:
-    // they cover 75 % of these 12 motions (the cross-validation pieces of four excitations
-    // show no structure error; with the eight of `reproduce`, 100 %). An open miss; what is
-    // asserted is that the errors shrink.
+    // With each motor's power the exact truth's errors shrink (worst from the plan 0.67 %
+    // for 1.10 %) and so do its intervals (mean half-width 0.42 %). With the structure error
+    // taken at its most likely value they shrank more than the errors and covered 75 % of
+    // these 12 motions (four excitations' pieces, most likely no structure error); averaged
+    // over what the pieces allow (structure 0.08 W), 100 / 100 %.
+    assert!(
+        exact_motors.0 >= 90.0 && exact_motors.1 >= 90.0 && exact_motors.2 < 0.6,
+        "{exact_motors:?}"
+    );
     assert!(exact_motors.5 < exact.5, "{exact_motors:?} {exact:?}");
 }
 

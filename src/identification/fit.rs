@@ -1051,9 +1051,18 @@ struct Piece {
 /// The structure error of a model: the variance of the mean-power error on motions it was not
 /// fitted on beyond what its parameter covariance and the residual explain, modelled as
 /// `sigma^2 + (rel A)^2` with `A` the motion's mean active power `|P - P0|` (a constant part
-/// and a part proportional to how hard the robot works). Fitted by maximum likelihood to the
-/// cross-validation pieces (`error ~ N(0, explained + sigma^2 + (rel A)^2)`) on a logarithmic
-/// grid (sigma 1e-4..30 W, rel 1e-5..0.3, and each of them 0). Returns `(sigma_W, rel)`.
+/// and a part proportional to how hard the robot works), with the cross-validation pieces as
+/// its data (`error ~ N(0, explained + sigma^2 + (rel A)^2)`).
+///
+/// Returns `(sigma_W, rel)` as the posterior root mean squares, `sqrt E[sigma^2]` and
+/// `sqrt E[rel^2]`, under uniform priors on `sigma` and `rel` (integrated over a logarithmic
+/// grid, sigma 1e-4..30 W, rel 1e-5..0.3, and each of them 0, with trapezoid weights): the
+/// variance a prediction should add is the structure variance averaged over what the pieces
+/// leave possible, not its most likely value. A few dozen pieces rarely pin it down: the
+/// maximum-likelihood value sat on zero for two of four noise draws of the realistic truth
+/// (sensor noise explaining most of each piece's error), which put the held-out intervals'
+/// coverage at 70-83 % on those draws; averaged, 87-100 % on all eight draw and held-out seed
+/// pairs (the exact truth's: 100 %, wider than its errors need; docs/out-of-sample.md).
 fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
     let grid = |lo: f64, hi: f64| -> Vec<f64> {
         let steps = 80;
@@ -1070,16 +1079,31 @@ fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
             })
             .sum()
     };
-    let mut best = (f64::INFINITY, 0.0, 0.0);
-    for &sigma in &grid(1e-4, 30.0) {
-        for &rel in &grid(1e-5, 0.3) {
-            let v = nll(sigma, rel);
-            if v < best.0 {
-                best = (v, sigma, rel);
+    // Trapezoid widths of the grid points: a uniform prior on sigma and on rel.
+    let widths = |x: &[f64]| -> Vec<f64> {
+        (0..x.len())
+            .map(|k| 0.5 * (x[(k + 1).min(x.len() - 1)] - x[k.saturating_sub(1)]))
+            .collect()
+    };
+    let (sigmas, rels) = (grid(1e-4, 30.0), grid(1e-5, 0.3));
+    let (ws, wr) = (widths(&sigmas), widths(&rels));
+    let mut terms = Vec::with_capacity(sigmas.len() * rels.len());
+    for (&sg, &a) in sigmas.iter().zip(&ws) {
+        for (&rl, &b) in rels.iter().zip(&wr) {
+            if a * b > 0.0 {
+                terms.push((sg, rl, -0.5 * nll(sg, rl) + (a * b).ln()));
             }
         }
     }
-    (best.1, best.2)
+    let top = terms.iter().map(|t| t.2).fold(f64::NEG_INFINITY, f64::max);
+    let (mut mass, mut s2, mut r2) = (0.0, 0.0, 0.0);
+    for (sg, rl, lw) in terms {
+        let w = (lw - top).exp();
+        mass += w;
+        s2 += w * sg * sg;
+        r2 += w * rl * rl;
+    }
+    ((s2 / mass).sqrt(), (r2 / mass).sqrt())
 }
 
 /// Choose among `candidates` by cross-validation over the folds of the samples (see
@@ -1426,6 +1450,35 @@ mod tests {
         assert!(
             sigma < 0.2 && (rel - 0.01).abs() < 0.002,
             "sigma {sigma}, rel {rel}"
+        );
+    }
+
+    /// Forty pieces (eight logs of five, as `reproduce` has) carrying 0.1 W of structure error
+    /// under 0.1-0.3 W of explained error: over 200 draws, the structure variance returned is
+    /// never taken for none (the most likely value, zero on many such draws, would make the
+    /// intervals too narrow just where the pieces say least) and on average neither dropped
+    /// nor blown up (measured: 1.65 times the true one, the uniform priors leaning wide).
+    #[test]
+    fn the_structure_error_of_few_pieces_is_averaged_not_dropped() {
+        let (truth, draws) = (0.1f64, 200);
+        let (mut mean, mut dropped) = (0.0, 0);
+        for seed in 0..draws {
+            let (sigma, rel) = structure_fit(&pieces(truth, 0.0, 40, 100 + seed));
+            // The variance added to a piece of 100 W active power, W^2.
+            let added = sigma * sigma + (rel * 100.0).powi(2);
+            mean += added / draws as f64;
+            if added < 0.1 * truth * truth {
+                dropped += 1;
+            }
+        }
+        let ratio = mean / (truth * truth);
+        assert!(
+            (0.8..2.5).contains(&ratio),
+            "mean added variance {ratio} x the true"
+        );
+        assert!(
+            dropped < draws / 20,
+            "{dropped} of {draws} draws dropped the error"
         );
     }
 
