@@ -127,6 +127,11 @@ fn check_schema(r: &Value) {
         num(model, key);
     }
     assert_eq!(model["weighting"], "power-level");
+    // The quick set: four excitations of two 10 s stretches.
+    assert_eq!(
+        model["excitation_duration_s"],
+        serde_json::json!([20.0, 20.0, 20.0, 20.0])
+    );
     // No standby rest in the default set (tests/idset.rs measures what one does).
     assert!(model["standby"].is_null());
     assert_eq!(model["consistent"], true);

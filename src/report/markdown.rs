@@ -13,6 +13,18 @@ const PAPER_TABLE4_PCT: [f64; 5] = [0.25, 0.91, 1.35, 1.1, 0.24];
 /// Relative standard deviation (%) below which a base parameter counts as well excited.
 pub const WELL_EXCITED_REL_STD_PCT: f64 = 1.0;
 
+/// Durations of runs, s: `30 s each` when they are alike, else each.
+fn durations(d: &[f64]) -> String {
+    match d.first() {
+        Some(&first) if d.iter().all(|&v| (v - first).abs() < 0.05) => format!("{first:.0} s each"),
+        _ => d
+            .iter()
+            .map(|v| format!("{v:.0} s"))
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
 /// The held-out benchmark: the accuracy a user can expect on motions the model never saw.
 fn heldout(w: &mut String, r: &Results) {
     let h = &r.heldout;
@@ -20,13 +32,13 @@ fn heldout(w: &mut String, r: &Results) {
     let _ = writeln!(w, "## Held-out benchmark (out of sample)\n");
     let _ = writeln!(
         w,
-        "The model `{}` was identified from {} excitations over the workspace carrying known \
-         loads of {} kg, designed together ({} of their stacked 10 Hz power regressor, {} \
+        "The model `{}` was identified from {} excitations ({}) over the workspace carrying \
+         known loads of {} kg, designed together ({} of their stacked 10 Hz power regressor, {} \
          rounds, condition number {:.0}, {:.1} s){}, with the estimator chosen by \
          cross-validation (leave one run out; mean-power error per candidate: {}; fitted on \
          {}; weighting `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
-         95 % intervals add to the parameter covariance a structure error fitted to the \
-         cross-validation pieces ({:.3} W plus {:.2} % of the active power). It then predicts \
+         95 % intervals add to the parameter covariance a structure error averaged over what \
+         the cross-validation pieces allow ({:.3} W plus {:.2} % of the active power). It then predicts \
          {} motions drawn from seed {} that no identification saw (random Fourier motions, \
          point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
          10 Hz log of each (rests held still, the least-jerk spline through the positions \
@@ -37,6 +49,7 @@ fn heldout(w: &mut String, r: &Results) {
          efficiency. The twin's truth only scores.\n",
         m.name,
         m.excitation_conds.len(),
+        durations(&m.excitation_duration_s),
         m.loads_kg
             .iter()
             .take(m.excitation_conds.len())

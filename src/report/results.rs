@@ -10,6 +10,7 @@ use crate::identification::consistency::Consistency;
 use crate::identification::excitation_set::SetCriterion;
 use crate::identification::fit::{CvScore, Weighting};
 use crate::report::markdown::WELL_EXCITED_REL_STD_PCT;
+use crate::trajectory::Trajectory;
 use crate::validation::heldout::Heldout;
 use crate::validation::payloads::CaseRow;
 use crate::validation::reproduce::{Outcome, StageTime};
@@ -56,10 +57,12 @@ pub struct ModelInfo {
     pub name: String,
     /// Cross-validation score of every candidate estimator.
     pub cv: Vec<CvScore>,
-    /// Structure error of the chosen model (cross-validated), W.
+    /// Structure error of the chosen model (cross-validated: the posterior root mean square
+    /// over what the pieces allow), W.
     #[serde(rename = "structure_sigma_W")]
     pub structure_sigma_w: f64,
-    /// Relative structure error of the chosen model's active power (cross-validated).
+    /// Relative structure error of the chosen model's active power (cross-validated, as
+    /// `structure_sigma_W`).
     pub structure_rel: f64,
     /// Weighting of the samples in the fit (`none`, `per-log`, `power-level`).
     pub weighting: Weighting,
@@ -71,6 +74,9 @@ pub struct ModelInfo {
     pub design: DesignInfo,
     /// Condition number of each identification excitation's own regressor.
     pub excitation_conds: Vec<f64>,
+    /// Duration of each identification excitation, s.
+    #[serde(rename = "excitation_duration_s")]
+    pub excitation_duration_s: Vec<f64>,
     /// Known load carried in each identification run, kg.
     pub loads_kg: Vec<f64>,
     /// The standby rest among those runs (the last): its pose, rad, and the URDF's gravity
@@ -248,6 +254,13 @@ impl Results {
                     wall_s: outcome.idset.design_s,
                 },
                 excitation_conds: outcome.idset.conds.clone(),
+                excitation_duration_s: outcome
+                    .idset
+                    .trajectories
+                    .iter()
+                    .take(outcome.idset.conds.len())
+                    .map(|t| t.duration())
+                    .collect(),
                 loads_kg: outcome
                     .idset
                     .payloads
