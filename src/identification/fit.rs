@@ -1090,9 +1090,7 @@ fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
     let mut terms = Vec::with_capacity(sigmas.len() * rels.len());
     for (&sg, &a) in sigmas.iter().zip(&ws) {
         for (&rl, &b) in rels.iter().zip(&wr) {
-            if a * b > 0.0 {
-                terms.push((sg, rl, -0.5 * nll(sg, rl) + (a * b).ln()));
-            }
+            terms.push((sg, rl, -0.5 * nll(sg, rl) + (a * b).ln()));
         }
     }
     let top = terms.iter().map(|t| t.2).fold(f64::NEG_INFINITY, f64::max);

@@ -75,8 +75,7 @@ impl IdSetOptions {
     /// went from 0.14-0.53 % to 0.14-0.33 % and the realistic truth's from 0.99-2.25 % to
     /// 0.93-1.97 % (above standby 1.9-5.1 % to 2.0-4.5 %); without sensor noise, 30 base
     /// parameters instead of 29 have a relative std under 1 %, all within 1.42 % of the truth.
-    /// `reproduce` takes about 0.5 s more (the runs are side by side with the held-out
-    /// motions').
+    /// `reproduce` takes about 1.5-2 s more (27.5-29.6 s over six runs, within its 30 s).
     ///
     /// Why eight: over five design seeds (101-105) the realistic truth's held-out worst
     /// energy error from the log was 1.16-1.82 % with eight excitations and 1.13-2.60 % with
