@@ -30,20 +30,14 @@ use crate::cli::{TruthArgs, emit, noise_settings, sweep_name, write_all};
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);
 
-/// Arguments of `reproduce`.
-///
-/// Runs, on the built-in ABB IRB 1200-7/0.7 twin: six optimised excitations and the paper's
-/// step-by-step identification from total power (Table 3); the paper's method against
-/// all-at-once and PMSM estimators on the same data, with identified against true base
-/// parameters (Table 2); the tool and load cases (Table 4); and the pick-and-place task over
-/// speeds and loads (Figure 14). Writes report.md, results.json, charts (SVG and PNG), every
-/// twin dataset and (with the `viz` feature) the Rerun recording powertwin.rrd under --out.
+/// Arguments of `reproduce` (what it runs: the command's help, `Command::Reproduce`).
 #[derive(Debug, Args)]
 pub struct ReproduceArgs {
     /// Output directory (created; existing files in it are replaced).
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// A short run: smaller excitation designs and a 3 x 2 sweep (0.1, 0.5, 1 m/s; 0, 4 kg).
+    /// A short run: smaller excitation designs (four identification excitations of two 10 s
+    /// stretches), 12 held-out motions and a 3 x 2 sweep (0.1, 0.5, 1 m/s; 0, 4 kg).
     #[arg(long)]
     quick: bool,
     /// Scenario TOML of the pick-and-place task and its sweep [default: built-in
