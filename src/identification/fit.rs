@@ -1092,11 +1092,6 @@ fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
         .sqrt()
         .max(1e-12);
     let mean_active = pieces.iter().map(|p| p.active_w).sum::<f64>() / count;
-    let scale_rel = if mean_active > 0.0 {
-        scale_w / mean_active
-    } else {
-        f64::INFINITY
-    };
     let mass = |x: &[f64], scale: f64| -> Vec<f64> {
         (0..x.len())
             .map(|k| {
@@ -1105,8 +1100,17 @@ fn structure_fit(pieces: &[Piece]) -> (f64, f64) {
             })
             .collect()
     };
-    let (sigmas, rels) = (grid(1e-4, 30.0), grid(1e-5, 0.3));
-    let (ws, wr) = (mass(&sigmas, scale_w), mass(&rels, scale_rel));
+    let sigmas = grid(1e-4, 30.0);
+    let ws = mass(&sigmas, scale_w);
+    // Pieces without active power say nothing of a relative error: none is added (the prior
+    // alone would put a large one on every prediction).
+    let (rels, wr) = if mean_active > 0.0 {
+        let rels = grid(1e-5, 0.3);
+        let wr = mass(&rels, scale_w / mean_active);
+        (rels, wr)
+    } else {
+        (vec![0.0], vec![1.0])
+    };
     let mut terms = Vec::with_capacity(sigmas.len() * rels.len());
     for (&sg, &a) in sigmas.iter().zip(&ws) {
         for (&rl, &b) in rels.iter().zip(&wr) {
@@ -1477,7 +1481,7 @@ mod tests {
     /// intervals too narrow just where the pieces say least) and on average neither dropped
     /// nor blown up (measured: 1.48 times the true one, the priors leaning wide).
     #[test]
-    fn the_structure_error_of_few_pieces_is_averaged_not_dropped() {
+    fn the_structure_error_of_forty_pieces_is_averaged_not_dropped() {
         let (truth, draws) = (0.1f64, 200);
         let (mut mean, mut dropped) = (0.0, 0);
         for seed in 0..draws {
@@ -1519,6 +1523,20 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Pieces without active power (the predicted power at the standby throughout) leave the
+    /// relative error at zero and the constant one finite.
+    #[test]
+    fn pieces_without_active_power_add_no_relative_error() {
+        let mut p = pieces(0.1, 0.0, 20, 7);
+        p.iter_mut().for_each(|x| x.active_w = 0.0);
+        let (sigma, rel) = structure_fit(&p);
+        assert_eq!(rel, 0.0);
+        assert!(
+            sigma.is_finite() && sigma > 0.0 && sigma < 1.0,
+            "sigma {sigma}"
+        );
     }
 
     /// Least squares on slow regressors (a constant and a 0.05 Hz sine and cosine at 10 Hz,
