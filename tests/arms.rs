@@ -33,6 +33,7 @@ use powertwin::trajectory::task::Scenario;
 use powertwin::twin::TwinConfig;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::SensorSettings;
+use powertwin::validation::heldout::{self, HeldoutOptions};
 use powertwin::validation::rig::{Rig, Silent};
 use powertwin::validation::sweep;
 use powertwin::{Error, Robot};
@@ -455,6 +456,38 @@ fn cli(arm: &Arm, tag: &str) {
         e.is_finite() && v["interval_95_J"].as_f64().unwrap() > 0.0,
         "{tag}: {v}"
     );
+    // The held-out benchmark on this arm: its own acceleration bounds, start poses and rated
+    // payload (from the drive file).
+    let mut a = with_drive(robot.clone());
+    a.extend(["--model".into(), s(&model)]);
+    a.extend(["--count", "3", "--truth", "exact", "--json"].map(String::from));
+    let v: serde_json::Value = serde_json::from_str(&call("validate", &a)).unwrap();
+    let motions = v["motions"].as_array().unwrap();
+    assert_eq!(motions.len(), 3, "{tag}: {v}");
+    assert_eq!(motions[2]["kind"], "linear", "{tag}: {v}");
+    for m in motions {
+        let e = m["from_log"]["energy_error_pct"].as_f64().unwrap();
+        assert!(e.abs() < 5.0, "{tag} held-out motion: {m}");
+    }
+    // Without a rated payload in the drive file, the largest payload must be given.
+    let unrated = tmp(&format!("{tag}_unrated.drive.toml"));
+    let text = std::fs::read_to_string(&drive).unwrap();
+    assert!(
+        text.contains("\nrated_payload_kg"),
+        "{tag}: the drive file rates a payload"
+    );
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with("rated_payload_kg"))
+        .collect();
+    std::fs::write(&unrated, kept.join("\n")).unwrap();
+    let mut a = robot.clone();
+    a.extend(["--drive".into(), s(&unrated), "--model".into(), s(&model)]);
+    a.extend(["--count", "3"].map(String::from));
+    let mut args: Vec<&str> = vec!["validate"];
+    args.extend(a.iter().map(String::as_str));
+    let (code, _, err) = powertwin(&args);
+    assert!(code != 0 && err.contains("--max-payload"), "{tag}: {err}");
     let mut a = with_drive(robot);
     a.extend([
         "--scenario".into(),
@@ -487,6 +520,44 @@ fn ur5_cli_commands_take_robot_and_drive() {
 #[test]
 fn panda_cli_commands_take_robot_drive_and_lock() {
     cli(&PANDA, "panda");
+}
+
+/// The held-out benchmark's motions on an arm other than the IRB 1200 stay within its joint
+/// limits and its acceleration bounds, with payloads up to its rated payload, and include
+/// linear moves (drawn from the middle of its joint ranges).
+fn heldout_motions_fit(arm: &Arm) {
+    let (robot, drive, _) = load(arm);
+    let rated = drive
+        .rated_payload_kg()
+        .expect("the drive file rates a payload");
+    let opts = HeldoutOptions::for_robot(&robot, 12, rated);
+    assert_eq!(opts.accel_limits.len(), robot.dof());
+    let motions = heldout::motions(&robot, &opts).expect("the motions draw");
+    assert_eq!(motions.len(), 12);
+    for m in &motions {
+        check_limits(
+            &robot,
+            m.trajectory.as_ref(),
+            0.002,
+            Some(&opts.accel_limits),
+        )
+        .unwrap_or_else(|e| panic!("{}: {} motion: {e}", arm.urdf, m.kind));
+        assert!(m.payload_kg <= rated, "{}: {} kg", arm.urdf, m.payload_kg);
+    }
+    assert_eq!(motions.iter().filter(|m| m.kind == "linear").count(), 4);
+    // Options sized for another arm are refused, not drawn.
+    let wrong = HeldoutOptions {
+        linear_start: vec![(0.0, 1.0); robot.dof() + 1],
+        ..opts
+    };
+    let err = heldout::motions(&robot, &wrong).err().expect("refused");
+    assert!(err.to_string().contains("linear_start"), "{err}");
+}
+
+#[test]
+fn heldout_motions_fit_the_ur5_and_the_panda() {
+    heldout_motions_fit(&UR5);
+    heldout_motions_fit(&PANDA);
 }
 
 /// The planned motion at `t`.

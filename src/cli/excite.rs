@@ -99,7 +99,7 @@ pub fn run(args: &ExciteArgs) -> Result<ExitCode> {
     let mut opts = ExcitationOptions::new(&robot, joints.clone(), vec![0.0; n], accel);
     opts.rest_pose = if !args.rest_pose.is_empty() {
         args.rest_pose.clone()
-    } else if robot.name() == "abb_irb1200_7_70" {
+    } else if robot.name() == powertwin::model::builtin::IRB1200_NAME {
         vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0]
     } else {
         rest_pose(

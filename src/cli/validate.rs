@@ -32,9 +32,10 @@ pub struct ValidateArgs {
     /// Seed of the motions (keep it apart from the identification data's).
     #[arg(long, default_value_t = 90_210)]
     seed: u64,
-    /// Largest payload, kg [default: 7, the IRB 1200's rated payload].
-    #[arg(long, default_value_t = 7.0)]
-    max_payload: f64,
+    /// Largest payload, kg [default: the drive file's rated payload (rated_payload_kg; the
+    /// IRB 1200's 7 kg)].
+    #[arg(long)]
+    max_payload: Option<f64>,
     /// Output directory for heldout.json and the twin datasets.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -47,21 +48,24 @@ pub struct ValidateArgs {
 pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
     let model = read_model(&args.model, &setup.robot)?;
-    if !(args.max_payload.is_finite() && args.max_payload > 0.0) {
+    let rated = setup.drive.rated_payload_kg();
+    let Some(max_payload) = args.max_payload.or(rated) else {
         anyhow::bail!(
-            "--max-payload {} must be a positive mass in kg",
-            args.max_payload
+            "the drive file gives no rated payload (rated_payload_kg): pass --max-payload KG, \
+             the largest payload of the held-out motions"
         );
+    };
+    if !(max_payload.is_finite() && max_payload > 0.0) {
+        anyhow::bail!("--max-payload {max_payload} must be a positive mass in kg");
     }
+    powertwin::model::payload::check_rated(max_payload, rated, "--max-payload")?;
     if args.count == 0 {
         anyhow::bail!("--count must be at least 1");
     }
     let rig = setup.rig();
     let opts = HeldoutOptions {
-        count: args.count,
         seed: args.seed,
-        max_payload_kg: args.max_payload,
-        ..HeldoutOptions::irb1200(args.count)
+        ..HeldoutOptions::for_robot(&setup.robot, args.count, max_payload)
     };
     let bars = Bars::new();
     let (h, datasets) = heldout::run(&rig, &model, &opts, &bars)?;

@@ -12,6 +12,10 @@
 use crate::error::{Error, Result};
 use crate::model::payload::Payload;
 
+/// Robot name of the ABB IRB 1200-7/0.7 in [`IRB1200_URDF`]: the defaults made for it
+/// (acceleration bounds, rest and start poses) apply to a robot of this name.
+pub const IRB1200_NAME: &str = "abb_irb1200_7_70";
+
 /// URDF of the ABB IRB 1200-7/0.7 (`models/irb1200_7_70.urdf`).
 pub const IRB1200_URDF: &str = include_str!("../../models/irb1200_7_70.urdf");
 

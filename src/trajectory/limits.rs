@@ -18,7 +18,9 @@ pub const ACCEL_TIME_S: f64 = 0.3;
 /// (robot name `abb_irb1200_7_70`), else each joint's URDF velocity limit divided by
 /// [`ACCEL_TIME_S`] (an estimate; give the robot's own values where published).
 pub fn default_accel_limits(robot: &Robot) -> Vec<f64> {
-    if robot.name() == "abb_irb1200_7_70" && robot.dof() == IRB1200_ACCEL_LIMITS.len() {
+    if robot.name() == crate::model::builtin::IRB1200_NAME
+        && robot.dof() == IRB1200_ACCEL_LIMITS.len()
+    {
         return IRB1200_ACCEL_LIMITS.to_vec();
     }
     robot

@@ -24,6 +24,7 @@ use crate::model::Robot;
 use crate::model::drive::Drive;
 use crate::model::payload::{Payload, PayloadEvent};
 use crate::trajectory::Trajectory;
+use crate::trajectory::limits::{IRB1200_ACCEL_LIMITS, default_accel_limits};
 use crate::trajectory::linear_move::{LinearMoveOptions, MotionLimits, ViaPose, plan};
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
@@ -50,11 +51,28 @@ pub struct HeldoutOptions {
     pub baseline_efficiency: f64,
     /// Route from a logged stream to states for the predictions from logs.
     pub route: Route,
+    /// Joint acceleration bounds of every motion, rad/s^2 (one per joint).
+    pub accel_limits: Vec<f64>,
+    /// Range of each joint's position at the start of a linear move, rad (one per joint).
+    pub linear_start: Vec<(f64, f64)>,
 }
+
+/// Start poses of the IRB 1200's linear moves, rad per joint: the arm reaching forward, over
+/// half of the base's turn, with the wrist bent (joint 5 at 0.4-1.4 rad) away from its
+/// singularity.
+const IRB1200_LINEAR_START: [(f64, f64); 6] = [
+    (-1.5, 1.5),
+    (-0.2, 0.7),
+    (-0.3, 0.5),
+    (-1.0, 1.0),
+    (0.4, 1.4),
+    (-1.0, 1.0),
+];
 
 impl HeldoutOptions {
     /// 30 motions from seed 90 210, payloads up to the IRB 1200's rated 7 kg, baseline
-    /// efficiency 0.87 (the middle of the paper's 83–92 %).
+    /// efficiency 0.87 (the middle of the paper's 83–92 %), the IRB 1200's acceleration bounds
+    /// ([`IRB1200_ACCEL_LIMITS`]) and linear moves from working poses in front of it.
     pub fn irb1200(count: usize) -> HeldoutOptions {
         HeldoutOptions {
             count,
@@ -62,6 +80,47 @@ impl HeldoutOptions {
             max_payload_kg: 7.0,
             baseline_efficiency: 0.87,
             route: LOG_ROUTE,
+            accel_limits: IRB1200_ACCEL_LIMITS.to_vec(),
+            linear_start: IRB1200_LINEAR_START.to_vec(),
+        }
+    }
+
+    /// The benchmark for any serial arm, with payloads up to `max_payload_kg` (its rated
+    /// payload): [`HeldoutOptions::irb1200`] for the IRB 1200 (robot `abb_irb1200_7_70`),
+    /// else its acceleration bounds by [`default_accel_limits`] and linear moves starting
+    /// with each joint in the middle half of its range (`[-pi, pi]` where unlimited).
+    pub fn for_robot(robot: &Robot, count: usize, max_payload_kg: f64) -> HeldoutOptions {
+        let base = HeldoutOptions::irb1200(count);
+        if robot.name() == crate::model::builtin::IRB1200_NAME
+            && robot.dof() == IRB1200_LINEAR_START.len()
+        {
+            return HeldoutOptions {
+                max_payload_kg,
+                ..base
+            };
+        }
+        let linear_start = robot
+            .joints()
+            .iter()
+            .map(|j| {
+                let lo = if j.limits.lower.is_finite() {
+                    j.limits.lower
+                } else {
+                    -std::f64::consts::PI
+                };
+                let hi = if j.limits.upper.is_finite() {
+                    j.limits.upper
+                } else {
+                    std::f64::consts::PI
+                };
+                (0.75 * lo + 0.25 * hi, 0.25 * lo + 0.75 * hi)
+            })
+            .collect();
+        HeldoutOptions {
+            max_payload_kg,
+            accel_limits: default_accel_limits(robot),
+            linear_start,
+            ..base
         }
     }
 }
@@ -81,7 +140,31 @@ pub struct Motion {
 }
 
 /// Draw the motions of `opts` for `robot`.
+///
+/// Errors: `opts.accel_limits` or `opts.linear_start` of the wrong length, a start range that
+/// is not finite and ordered; no motion of a kind within the limits after 50 draws.
 pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
+    robot.check_len(&opts.accel_limits, "accel_limits")?;
+    if opts.linear_start.len() != robot.dof() {
+        return Err(Error::InvalidInput(format!(
+            "linear_start has {} ranges, the robot has {} joints",
+            opts.linear_start.len(),
+            robot.dof()
+        )));
+    }
+    if let Some((i, r)) = opts
+        .linear_start
+        .iter()
+        .enumerate()
+        .find(|(_, r)| !(r.0.is_finite() && r.1.is_finite() && r.0 <= r.1))
+    {
+        return Err(Error::InvalidInput(format!(
+            "linear_start[{}] = [{}, {}] rad must be a finite range",
+            i + 1,
+            r.0,
+            r.1
+        )));
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     (0..opts.count)
         .map(|k| {
@@ -107,6 +190,7 @@ pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
                     let o = RandomFourierOptions {
                         base_freq_hz: rng.random_range(0.1..=0.25),
                         min_amplitude: 0.3,
+                        accel_limits: opts.accel_limits.clone(),
                         ..RandomFourierOptions::default()
                     };
                     (
@@ -120,6 +204,7 @@ pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
                         points: 4,
                         max_slowdown: 3.0,
                         dwell_s: 0.3,
+                        accel_limits: opts.accel_limits.clone(),
                         ..RandomPointToPointOptions::default()
                     };
                     (
@@ -129,7 +214,7 @@ pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
                     )
                 }
                 _ => {
-                    let (m, v) = linear(robot, &mut rng)?;
+                    let (m, v) = linear(robot, opts, &mut rng)?;
                     ("linear", Box::new(m), Some(v))
                 }
             };
@@ -144,31 +229,22 @@ pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
         .collect()
 }
 
-/// Random linear TCP moves: from a random working pose (tool orientation kept) through
-/// three points 0.1–0.3 m apart, at a log-uniform TCP speed in 0.05–1 m/s. Draws again
-/// (up to 50 times) when a plan is unreachable or breaks a joint limit.
+/// Random linear TCP moves: from a random working pose (each joint within
+/// `opts.linear_start`; tool orientation kept) through three points 0.1–0.3 m apart, at a
+/// log-uniform TCP speed in 0.05–1 m/s, within `opts.accel_limits`. Draws again (up to 50
+/// times) when a plan is unreachable or breaks a joint limit.
 fn linear<R: Rng + ?Sized>(
     robot: &Robot,
+    opts: &HeldoutOptions,
     rng: &mut R,
 ) -> Result<(crate::trajectory::linear_move::LinearMotion, f64)> {
     let mut last = None;
     for _ in 0..50 {
-        let q0: Vec<f64> = [
-            rng.random_range(-1.5..=1.5),
-            rng.random_range(-0.2..=0.7),
-            rng.random_range(-0.3..=0.5),
-            rng.random_range(-1.0..=1.0),
-            rng.random_range(0.4..=1.4),
-            rng.random_range(-1.0..=1.0),
-        ]
-        .into_iter()
-        .take(robot.dof())
-        .collect();
-        if q0.len() != robot.dof() {
-            return Err(Error::InvalidInput(
-                "linear held-out moves are drawn for 6-joint arms".into(),
-            ));
-        }
+        let q0: Vec<f64> = opts
+            .linear_start
+            .iter()
+            .map(|&(lo, hi)| rng.random_range(lo..=hi))
+            .collect();
         let start = flange_pose(robot, &q0);
         let mut via = vec![ViaPose {
             name: "start".into(),
@@ -194,6 +270,7 @@ fn linear<R: Rng + ?Sized>(
             dwell_s: 0.2,
             limits: MotionLimits {
                 accel_m_s2: 4.0,
+                joint_accel_rad_s2: opts.accel_limits.clone(),
                 ..MotionLimits::default()
             },
             ..LinearMoveOptions::default()
