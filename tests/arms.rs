@@ -469,6 +469,21 @@ fn cli(arm: &Arm, tag: &str) {
         let e = m["from_log"]["energy_error_pct"].as_f64().unwrap();
         assert!(e.abs() < 5.0, "{tag} held-out motion: {m}");
     }
+    // Bulk ground truth on this arm: its acceleration bounds, payloads within its rating.
+    let bulk = tmp(&format!("{tag}_bulk"));
+    let mut a = with_drive(robot.clone());
+    a.extend(["--count", "6", "--seed", "3", "--out"].map(String::from));
+    a.push(s(&bulk));
+    call("dataset", &a);
+    let rated = load(arm).1.rated_payload_kg().unwrap();
+    for k in 0..6 {
+        let meta = std::fs::read_to_string(bulk.join(format!("item_{k:06}/meta.json"))).unwrap();
+        let meta: serde_json::Value = serde_json::from_str(&meta).unwrap();
+        for p in meta["payloads"].as_array().unwrap() {
+            let kg = p["mass_kg"].as_f64().unwrap();
+            assert!(kg <= rated, "{tag} item {k}: {kg} kg");
+        }
+    }
     // Without a rated payload in the drive file, the largest payload must be given.
     let unrated = tmp(&format!("{tag}_unrated.drive.toml"));
     let text = std::fs::read_to_string(&drive).unwrap();

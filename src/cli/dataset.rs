@@ -16,9 +16,11 @@ use super::TwinArgs;
 /// Arguments of `dataset`.
 ///
 /// Item j of the global set is drawn from (seed, j) alone: a random rest-to-rest Fourier
-/// excitation or point-to-point motion, no payload / the tool / the tool plus a 0.5-4 kg
-/// steel cube, drive friction, rotor inertia and losses scaled by 0.7-1.3 from the drive
-/// file and efficiency 0.83-0.92 (see docs/bulk-datasets.md).
+/// excitation or point-to-point motion within the robot's acceleration bounds (those of
+/// `excite`), no payload / the tool / the tool plus a 0.5-4 kg steel cube (at most what the
+/// drive file's rated payload leaves beside the tool), drive friction, rotor inertia and
+/// losses scaled by 0.7-1.3 from the drive file and efficiency 0.83-0.92 (see
+/// docs/bulk-datasets.md).
 #[derive(Debug, Args)]
 pub struct DatasetArgs {
     #[command(flatten)]

@@ -30,6 +30,7 @@ use crate::model::drive::{Drive, JointDrive};
 use crate::model::payload::Payload;
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
+use crate::trajectory::limits::default_accel_limits;
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
@@ -102,19 +103,38 @@ fn splitmix64(mut x: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// Generate item `index` of the global set.
+/// Mass range of the steel cube items carry beside the tool, kg.
+const CUBE_KG: (f64, f64) = (0.5, 4.0);
+
+/// Generate item `index` of the global set: a random Fourier or point-to-point motion within
+/// the robot's acceleration bounds ([`default_accel_limits`]), with no payload, the tool, or
+/// the tool and a steel cube of 0.5-4 kg (at most what the drive file's rated payload leaves
+/// beside the tool; the tool alone where it leaves under 0.5 kg).
+///
+/// Errors: the tool alone above the rated payload; a motion or twin run that fails.
 pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
+    crate::model::payload::check_rated(
+        spec.tool.inertia.mass,
+        spec.drive.rated_payload_kg(),
+        "the items' tool",
+    )?;
     let item_seed = splitmix64(spec.seed ^ splitmix64(index as u64));
     let mut rng = ChaCha8Rng::seed_from_u64(item_seed);
     let robot = spec.robot;
     let (traj, description): (Box<dyn Trajectory>, serde_json::Value) = if rng.random_bool(0.5) {
-        let o = RandomFourierOptions::default();
+        let o = RandomFourierOptions {
+            accel_limits: default_accel_limits(robot),
+            ..RandomFourierOptions::default()
+        };
         let f = random_fourier(robot, &mut rng, &o)?;
         let d = json!({"kind": "random fourier", "base_freq_hz": o.base_freq_hz, "harmonics": o.harmonics, "periods": o.periods,
             "q0_rad": f.q0(), "a_rad": f.a(), "b_rad": f.b()});
         (Box::new(f), d)
     } else {
-        let o = RandomPointToPointOptions::default();
+        let o = RandomPointToPointOptions {
+            accel_limits: default_accel_limits(robot),
+            ..RandomPointToPointOptions::default()
+        };
         let p = random_point_to_point(robot, &mut rng, &o)?;
         let d = json!({"kind": "random point to point", "points_rad": p.points(), "arrival_times_s": p.arrival_times()});
         (Box::new(p), d)
@@ -124,9 +144,23 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         1 => Some(spec.tool.clone()),
         _ => {
             let at = spec.tool.tcp.unwrap_or_else(Vector3::zeros);
-            let mass = rng.random_range(0.5..4.0);
-            let cube = Payload::cube(&format!("steel cube {mass:.3} kg"), mass, at)?;
-            Some(spec.tool.combined(&cube))
+            // 0.5-4 kg, less where the rated payload leaves less room beside the tool.
+            let room = spec
+                .drive
+                .rated_payload_kg()
+                .map_or(CUBE_KG.1, |r| (r - spec.tool.inertia.mass).min(CUBE_KG.1));
+            let drawn = rng.random_range(CUBE_KG.0..CUBE_KG.1);
+            if room < CUBE_KG.0 {
+                Some(spec.tool.clone())
+            } else {
+                let mass = if room < CUBE_KG.1 {
+                    CUBE_KG.0 + (drawn - CUBE_KG.0) * (room - CUBE_KG.0) / (CUBE_KG.1 - CUBE_KG.0)
+                } else {
+                    drawn
+                };
+                let cube = Payload::cube(&format!("steel cube {mass:.3} kg"), mass, at)?;
+                Some(spec.tool.combined(&cube))
+            }
         }
     };
     let joints: Vec<JointDrive> = spec
