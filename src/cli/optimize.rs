@@ -398,12 +398,29 @@ fn summary(
         .first()
         .map_or(0.0, |(_, s)| s.predicted_saving_pct);
     if placed.is_none() && timing_saving < 1.0 {
+        // The least energy per cycle at any cycle time the front spans.
+        let least = found
+            .front
+            .iter()
+            .min_by(|a, b| a.predicted_j.total_cmp(&b.predicted_j));
+        let longer = found.bound_s > found.uniform.cycle_time_s * (1.0 + 1e-9);
+        let what = if longer && timing_saving < 0.0 {
+            "this cycle is longer than the uniform plan's, and the waiting and slower motion \
+             over the difference cost more per cycle than they save"
+        } else {
+            "the uniform plan is already near the least energy the model finds for its cycle time"
+        };
+        let front = least.map_or(String::new(), |p| {
+            format!(
+                " Per cycle the model finds at least {:.1} J, at a {:.3} s cycle (Pareto \
+                 front in pareto.svg).",
+                p.predicted_j, p.cycle_time_s
+            )
+        });
         outln!(
             o,
-            "note: at this cycle time the timing saves under 1 %: the uniform plan is already \
-             near the least energy the model finds for it (Pareto front in pareto.svg). A longer \
-             cycle (--cycle-time, --max-slowdown) or a placement search (--search-offset) may \
-             save more."
+            "note: the timing saves under 1 % ({timing_saving:+.1} %): {what}.{front} A placement \
+             search (--search-offset) may save more."
         );
     }
     if let Some(p) = placed {

@@ -8,10 +8,10 @@ use serde::Serialize;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::model::drive::{BrakeWindow, Brakes};
+use crate::model::drive::BrakeWindow;
 use crate::optimize::schedule::{Schedule, WaitPrices};
 use crate::optimize::segment::Task;
-use crate::optimize::{Optimized, predict_run};
+use crate::optimize::{Optimized, PlannedSchedule, plan_schedule, predict_run};
 use crate::trajectory::task::TaskRun;
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
@@ -113,32 +113,38 @@ pub fn check(
     let uniform_run = task
         .scenario
         .plan(task.robot, optimized.uniform.speed_m_s, task.load_kg)?;
-    let mut jobs: Vec<(String, Task, TaskRun, Vec<BrakeWindow>, f64)> =
-        vec![("uniform".to_string(), *task, uniform_run, Vec::new(), 0.0)];
+    let uniform_p = predict_run(task, &uniform_run)?;
+    let mut jobs: Vec<(String, Task, PlannedSchedule)> = vec![(
+        "uniform".to_string(),
+        *task,
+        PlannedSchedule {
+            run: uniform_run,
+            brakes: Vec::new(),
+            predicted_j: uniform_p.energy_j,
+            interval_j: uniform_p.interval_j,
+        },
+    )];
     for c in candidates {
-        let run =
-            c.task
-                .scenario
-                .plan_timed(c.task.robot, &c.schedule.timings(), c.task.load_kg)?;
-        let windows = c.schedule.brake_windows(&run.motion.arrivals_s, brakes);
-        let hold_w = if windows.is_empty() {
-            0.0
-        } else {
-            WaitPrices::new(&c.task, brakes)?.hold_w[c.schedule.wait.after_segment]
-        };
-        jobs.push((c.name.to_string(), c.task, run, windows, hold_w));
+        let prices = WaitPrices::new(&c.task, brakes)?;
+        jobs.push((
+            c.name.to_string(),
+            c.task,
+            plan_schedule(&c.task, c.schedule, &prices)?,
+        ));
     }
     let clipped = task.model.signal.clipped();
     let out: Vec<(PlanCheck, Dataset)> = jobs
         .par_iter()
         .enumerate()
-        .map(|(k, (name, t, run, windows, hold_w))| {
+        .map(|(k, (name, t, plan))| {
             let description = serde_json::json!({
                 "kind": "optimised task check",
                 "plan": name,
                 "scenario": t.scenario.name,
                 "load_kg": t.load_kg,
             });
+            let run = &plan.run;
+            let windows = &plan.brakes;
             let (ds, report) = rig.run_reported(
                 &run.motion.trajectory,
                 &run.events,
@@ -146,10 +152,8 @@ pub fn check(
                 300 + k as u64,
                 description,
             )?;
-            let p = predict_run(t, run)?;
             let braked_s: f64 = windows.iter().map(|w| w.end_s - w.start_s).sum();
-            let brake_w = brakes.map_or(0.0, |b: &Brakes| b.power_w);
-            let predicted_j = p.energy_j - (hold_w - brake_w) * braked_s;
+            let predicted_j = plan.predicted_j;
             let sim = &ds.meta.summary;
             let simulated_j = if clipped {
                 sim.energy_grid_j
@@ -162,7 +166,7 @@ pub fn check(
                     name: name.clone(),
                     cycle_time_s: run.motion.duration_s,
                     predicted_j,
-                    interval_j: p.interval_j,
+                    interval_j: plan.interval_j,
                     simulated_j,
                     error_pct: energy_error_pct(predicted_j, simulated_j),
                     braked_s,
@@ -191,7 +195,7 @@ pub fn check(
         })
         .collect();
     let (runs, brakes): (Vec<TaskRun>, Vec<Vec<BrakeWindow>>) =
-        jobs.into_iter().map(|(_, _, r, w, _)| (r, w)).unzip();
+        jobs.into_iter().map(|(_, _, p)| (p.run, p.brakes)).unzip();
     Ok(Checked {
         uniform,
         plans,
