@@ -316,10 +316,24 @@ fn optimize_cli_writes_the_plan_charts_and_datasets() {
     assert_eq!(plan["segments"].as_array().unwrap().len(), 12);
     assert!(plan["pareto"].as_array().unwrap().len() > 2);
     assert_eq!(
-        stdout.contains("note: at this cycle time"),
+        stdout.contains("note: the timing saves under 1 %"),
         predicted < 1.0,
         "{stdout}"
     );
+    // The note names the least energy per cycle on the Pareto front, below the uniform plan's.
+    let least = plan["pareto"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["predicted_J"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert!(least <= plan["uniform"]["predicted_J"].as_f64().unwrap());
+    if predicted < 1.0 {
+        assert!(
+            stdout.contains(&format!("at least {least:.1} J")),
+            "{stdout}"
+        );
+    }
 }
 
 /// The least-energy speed of several loads searched together (their sampled speeds planned

@@ -18,7 +18,7 @@ use crate::dataset::Dataset;
 use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
-use crate::identification::model::PowerModel;
+use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use crate::kinematics::fk::flange_pose;
 use crate::model::Robot;
 use crate::model::drive::Drive;
@@ -78,7 +78,7 @@ impl HeldoutOptions {
             count,
             seed: 90_210,
             max_payload_kg: 7.0,
-            baseline_efficiency: 0.87,
+            baseline_efficiency: DATASHEET_EFFICIENCY,
             route: LOG_ROUTE,
             accel_limits: IRB1200_ACCEL_LIMITS.to_vec(),
             linear_start: IRB1200_LINEAR_START.to_vec(),
