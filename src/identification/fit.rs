@@ -465,7 +465,8 @@ const VARIANCE_FLOOR: f64 = 0.05;
 /// Fit `estimator` on the samples for which `use_sample(m)` and the sample's fit flag hold,
 /// weighted by `weighting` (iterated: each weighting from the previous fit's residuals).
 /// `template` gives the robot's base-parameter set (its values are ignored). The covariance
-/// is the weighted one; `residual_rms` stays the unweighted RMS in W of the arm's power (not
+/// is the weighted one (the model's, where [`Estimator::Pmsm`] holds copper coefficients at
+/// zero, the free fit's); `residual_rms` stays the unweighted RMS in W of the arm's power (not
 /// the motors').
 pub fn fit(
     template: &PowerModel,
@@ -507,11 +508,18 @@ pub fn fit(
             f.estimate.values[k] <= COPPER_SIGNIFICANCE * f.covariance[(k, k)].max(0.0).sqrt()
         })
         .collect();
-    if weak.iter().any(|&w| w) {
-        run(&weak)
-    } else {
-        Ok(f)
+    if !weak.iter().any(|&w| w) {
+        return Ok(f);
     }
+    let mut held = run(&weak)?;
+    // Held at zero is an estimate, not knowledge: the model predicts with the free fit's
+    // covariance, in which a held coefficient keeps its spread and its trade against the
+    // standby and the others. A motion like the data then gets about the interval it had,
+    // and one whose torques on that joint go beyond the data's (a payload the data never
+    // carried) a wider one, not a narrow one around the missing copper loss. (The fit's own
+    // covariance keeps zero rows there: they mark the parameters it held.)
+    held.model.covariance = f.model.covariance;
+    Ok(held)
 }
 
 /// Weights `1 / sigma_m^2` of the samples `rows` under `weighting`, from the residuals of the
