@@ -204,8 +204,8 @@ pub struct SplineRoute {
     pub knots: States,
     /// How clearly each joint is seen to move at each knot, in `[0, 1]` (`[i][k]`; 1 at the
     /// rests, where the route's speed is 0 anyway, and at the instants inside sample
-    /// intervals): the weights of the expected Coulomb sign along the motion
-    /// ([`move_weights`]).
+    /// intervals): the weights of the expected Coulomb sign along the motion (see
+    /// [`MOVE_Z`]).
     pub move_weights: Vec<Vec<f64>>,
 }
 
@@ -382,18 +382,19 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
 }
 
 /// Encoder noise (rad) the rest test is built for ([`REST_SPEED`] x [`REST_WINDOW_S`] is
-/// seven standard deviations of the difference of two samples): [`move_weights`] assumes at
-/// least this much where the log has no rests to show its own ([`noise_levels`] then
-/// estimates it from each joint's differences, and gives 0 where the motion hides it).
+/// seven standard deviations of the difference of two samples): the route's move weights
+/// ([`SplineRoute::move_weights`]) assume at least this much where the log has no rests to
+/// show its own ([`noise_levels`] then estimates it from each joint's differences, and gives
+/// 0 where the motion hides it).
 pub const ASSUMED_ENCODER_NOISE: f64 =
     REST_SPEED * REST_WINDOW_S / (7.0 * std::f64::consts::SQRT_2);
 
-/// Half-width (s) of the window in which [`move_weights`] fits each joint's local slope: at
+/// Half-width (s) of the window in which the move weights fit each joint's local slope: at
 /// 10 Hz the sample and one on each side. (0.2 s left the weights at 1 at the edges of a
 /// 0.5 s stand-still, whose windows reach into the motion next to it.)
 pub const SLOPE_HALF_WINDOW_S: f64 = 0.1;
 
-/// The local slope's size in standard deviations below which [`move_weights`] takes a joint
+/// The local slope's size in standard deviations below which the move weights take a joint
 /// as not seen to move (weight 0: encoder noise alone stays below 2 in 95 % of windows), and
 /// above which as moving (weight 1); linear between. Chosen on the held-out benchmark: the
 /// weight `erf(z / sqrt 2)` (the chance that the slope's sign is right) left the realistic

@@ -287,7 +287,7 @@ impl RapierRobot {
     }
 
     /// Advance one step `dt` holding the motor torques `tau` (N m) against the joints' dry
-    /// friction. A joint whose speed `v` (rad/s) is above [`SLIDING_SPEED`] and keeps its
+    /// friction. A joint whose speed `v` (rad/s) is above `SLIDING_SPEED` (1e-3) and keeps its
     /// sign two steps ahead at the last step's acceleration `a` (`v (v + 2 a dt) > 0`) slides:
     /// its friction is the torque `-fc sign(v)` added to `tau`. The others get the
     /// friction-loss constraint of bound `fc` (stiction; Rapier decides the torque).
