@@ -355,3 +355,20 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
     assert!(err.contains("base parameters"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The benchmark for "any robot" is the IRB 1200's own for the IRB 1200 (its figures stay
+/// comparable), with the payload bound given.
+#[test]
+fn the_benchmark_for_the_irb1200_is_its_own() {
+    let robot = common::irb1200();
+    assert_eq!(
+        HeldoutOptions::for_robot(&robot, 30, 7.0),
+        HeldoutOptions::irb1200(30)
+    );
+    let lighter = HeldoutOptions::for_robot(&robot, 12, 4.0);
+    assert_eq!(lighter.max_payload_kg, 4.0);
+    assert_eq!(
+        lighter.accel_limits,
+        HeldoutOptions::irb1200(12).accel_limits
+    );
+}
