@@ -1127,6 +1127,30 @@ mod spline_route {
         let s = noise_levels(&both, &none(&both));
         assert_eq!(s[0], 0.0, "{s:?}");
         assert!((s[1] / 5e-4 - 1.0).abs() < 0.5, "{s:?}");
+        // A 1 kHz motion with 1e-5 rad of noise that ends in a short rest whose 22 samples
+        // happen to scatter by only 0.7e-5: the motion's 4000 samples show the noise far
+        // better, and the two are pooled (the rest alone left the spline under-smoothed).
+        let mut rng = common::rng(7);
+        let mut x: Vec<f64> = (0..4000)
+            .map(|k| (1.3e-3 * k as f64).sin() + 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0))
+            .collect();
+        let held = (5.2f64).sin();
+        x.extend((0..22).map(|_| held + 0.7e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0)));
+        let mut rest = vec![false; x.len() - 1];
+        rest[4000..].fill(true);
+        let s = noise_levels(&[x], &rest)[0];
+        assert!((s / 1e-5 - 1.0).abs() < 0.08, "{s}");
+        // At 10 Hz, a joint that jitters while the others move (5e-4 rad, white) does not
+        // pool with its encoder noise at rest (1e-5 rad): the rest decides.
+        let mut rng = common::rng(8);
+        let mut x: Vec<f64> = (0..200)
+            .map(|_| 5e-4 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64))
+            .collect();
+        x.extend((0..10).map(|_| 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64)));
+        let mut rest = vec![false; x.len() - 1];
+        rest[200..].fill(true);
+        let s = noise_levels(&[x], &rest)[0];
+        assert!(s < 2e-5, "{s}");
     }
     #[test]
     fn an_averaging_logger_gets_the_states_of_its_windows() {
