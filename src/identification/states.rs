@@ -738,7 +738,7 @@ fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 /// `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
 /// each joint's samples about each rest's mean, pooled over the rests, and where the joint's
 /// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that,
-/// both pooled by their degrees of freedom ([`white_sigma`]). Otherwise from the differences
+/// both pooled by their degrees of freedom (`white_sigma`). Otherwise from the differences
 /// alone, joint by joint: where a joint's samples look like white noise, that estimate;
 /// where they do not, zero (the sampling resolves the motion above the noise, and the spline
 /// interpolates). Each joint keeps its own: a 10 Hz log whose wrist sticks and slips looks
