@@ -566,7 +566,7 @@ fn heldout_motions_fit(arm: &Arm) {
     let rated = drive
         .rated_payload_kg()
         .expect("the drive file rates a payload");
-    let opts = HeldoutOptions::for_robot(&robot, 12, rated);
+    let opts = HeldoutOptions::for_robot(&robot, 12, rated).unwrap();
     assert_eq!(opts.accel_limits.len(), robot.dof());
     let motions = heldout::motions(&robot, &opts).expect("the motions draw");
     assert_eq!(motions.len(), 12);

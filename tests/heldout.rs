@@ -362,10 +362,10 @@ fn predict_takes_known_payloads_and_gives_an_interval() {
 fn the_benchmark_for_the_irb1200_is_its_own() {
     let robot = common::irb1200();
     assert_eq!(
-        HeldoutOptions::for_robot(&robot, 30, 7.0),
+        HeldoutOptions::for_robot(&robot, 30, 7.0).unwrap(),
         HeldoutOptions::irb1200(30)
     );
-    let lighter = HeldoutOptions::for_robot(&robot, 12, 4.0);
+    let lighter = HeldoutOptions::for_robot(&robot, 12, 4.0).unwrap();
     assert_eq!(lighter.max_payload_kg, 4.0);
     assert_eq!(
         lighter.accel_limits,

@@ -65,7 +65,7 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     let rig = setup.rig();
     let opts = HeldoutOptions {
         seed: args.seed,
-        ..HeldoutOptions::for_robot(&setup.robot, args.count, max_payload)
+        ..HeldoutOptions::for_robot(&setup.robot, args.count, max_payload)?
     };
     let bars = Bars::new();
     let (h, datasets) = heldout::run(&rig, &model, &opts, &bars)?;

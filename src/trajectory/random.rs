@@ -261,7 +261,7 @@ fn check_common(
 
 /// Admissible positions of a joint, rad: its limits (`[-pi, pi]` where unlimited) less the
 /// margin.
-fn position_range(robot: &Robot, joint: &Joint, margin: f64) -> Result<(f64, f64)> {
+pub(crate) fn position_range(robot: &Robot, joint: &Joint, margin: f64) -> Result<(f64, f64)> {
     let lo = if joint.limits.lower.is_finite() {
         joint.limits.lower
     } else {

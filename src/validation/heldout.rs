@@ -27,7 +27,8 @@ use crate::trajectory::Trajectory;
 use crate::trajectory::limits::{IRB1200_ACCEL_LIMITS, default_accel_limits};
 use crate::trajectory::linear_move::{LinearMoveOptions, MotionLimits, ViaPose, plan};
 use crate::trajectory::random::{
-    RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
+    RandomFourierOptions, RandomPointToPointOptions, position_range, random_fourier,
+    random_point_to_point,
 };
 use crate::validation::rig::{Progress, Rig};
 use crate::validation::score::{self, MotionResult, RouteSummary, Spread};
@@ -89,39 +90,32 @@ impl HeldoutOptions {
     /// payload): [`HeldoutOptions::irb1200`] for the IRB 1200 (robot `abb_irb1200_7_70`),
     /// else its acceleration bounds by [`default_accel_limits`] and linear moves starting
     /// with each joint in the middle half of its range (`[-pi, pi]` where unlimited).
-    pub fn for_robot(robot: &Robot, count: usize, max_payload_kg: f64) -> HeldoutOptions {
+    ///
+    /// Errors: a joint whose limits leave no range.
+    pub fn for_robot(robot: &Robot, count: usize, max_payload_kg: f64) -> Result<HeldoutOptions> {
         let base = HeldoutOptions::irb1200(count);
         if robot.name() == crate::model::builtin::IRB1200_NAME
             && robot.dof() == IRB1200_LINEAR_START.len()
         {
-            return HeldoutOptions {
+            return Ok(HeldoutOptions {
                 max_payload_kg,
                 ..base
-            };
+            });
         }
         let linear_start = robot
             .joints()
             .iter()
             .map(|j| {
-                let lo = if j.limits.lower.is_finite() {
-                    j.limits.lower
-                } else {
-                    -std::f64::consts::PI
-                };
-                let hi = if j.limits.upper.is_finite() {
-                    j.limits.upper
-                } else {
-                    std::f64::consts::PI
-                };
-                (0.75 * lo + 0.25 * hi, 0.25 * lo + 0.75 * hi)
+                let (lo, hi) = position_range(robot, j, 0.0)?;
+                Ok((0.75 * lo + 0.25 * hi, 0.25 * lo + 0.75 * hi))
             })
-            .collect();
-        HeldoutOptions {
+            .collect::<Result<_>>()?;
+        Ok(HeldoutOptions {
             max_payload_kg,
             accel_limits: default_accel_limits(robot),
             linear_start,
             ..base
-        }
+        })
     }
 }
 
