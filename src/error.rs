@@ -34,9 +34,14 @@ pub enum Error {
         /// Parser message, with line and column.
         message: String,
     },
-    /// A numeric input is not finite or has the wrong length.
+    /// The user's input is wrong: a value is not finite, out of range or of the wrong length,
+    /// a name is unknown, options contradict each other. Names the input and what it must be.
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// A computation failed on input that was valid: a solver did not converge, a matrix that
+    /// must be positive definite is not, a result is not finite. Names the computation.
+    #[error("numerical failure: {0}")]
+    Numerical(String),
     /// A joint position or velocity is outside its limit.
     #[error("joint limit violated: {0}")]
     JointLimit(String),
@@ -97,6 +102,7 @@ impl Error {
             Error::JointLimit(m) => Error::JointLimit(format!("{context}: {m}")),
             Error::Unreachable(m) => Error::Unreachable(format!("{context}: {m}")),
             Error::Model(m) => Error::Model(format!("{context}: {m}")),
+            Error::Numerical(m) => Error::Numerical(format!("{context}: {m}")),
             other => other,
         }
     }
