@@ -102,10 +102,16 @@ const REMEMBERED: usize = 8;
 
 /// The base parameters [`BaseParams::compute`] found last, keyed by everything they depend
 /// on: a prediction with payload events needs them once per call, and the speed optimiser and
-/// the held-out benchmark predict hundreds of times on one robot (8 % of `reproduce`'s CPU
-/// time before).
-type Memo = Vec<(Robot, ParamLayout, SamplingOptions, BaseParams)>;
-static MEMO: std::sync::Mutex<Memo> = std::sync::Mutex::new(Vec::new());
+/// the held-out benchmark predict hundreds of times on one robot.
+static MEMO: std::sync::Mutex<Vec<MemoEntry>> = std::sync::Mutex::new(Vec::new());
+
+/// One remembered [`BaseParams::compute`]: its inputs and its result.
+struct MemoEntry {
+    robot: Robot,
+    layout: ParamLayout,
+    opts: SamplingOptions,
+    base: BaseParams,
+}
 
 impl BaseParams {
     /// Compute the base parameters of `robot` for `layout` from random states (seeded, so
@@ -115,13 +121,11 @@ impl BaseParams {
         layout: ParamLayout,
         opts: &SamplingOptions,
     ) -> Result<BaseParams> {
-        let key = |(r, l, o, _): &(Robot, ParamLayout, SamplingOptions, BaseParams)| {
-            r == robot && *l == layout && o == opts
-        };
+        let key = |e: &MemoEntry| e.robot == *robot && e.layout == layout && e.opts == *opts;
         if let Ok(memo) = MEMO.lock()
             && let Some(hit) = memo.iter().find(|e| key(e))
         {
-            return Ok(hit.3.clone());
+            return Ok(hit.base.clone());
         }
         if opts.samples * robot.dof() < layout.len() {
             return Err(Error::InvalidInput(format!(
@@ -134,7 +138,15 @@ impl BaseParams {
         let base = Self::from_stack(&random_stack(robot, &layout, opts)?, layout)?;
         if let Ok(mut memo) = MEMO.lock() {
             memo.retain(|e| !key(e));
-            memo.insert(0, (robot.clone(), layout, *opts, base.clone()));
+            memo.insert(
+                0,
+                MemoEntry {
+                    robot: robot.clone(),
+                    layout,
+                    opts: *opts,
+                    base: base.clone(),
+                },
+            );
             memo.truncate(REMEMBERED);
         }
         Ok(base)

@@ -82,8 +82,8 @@ impl From<&Drive> for DriveTerms {
 /// twin's controller nor a model adds any). Far below any speed a drive moves at, far above
 /// the rounding error of a planned reference: a joint a linear TCP move leaves still gets
 /// speeds of 1e-17 rad/s from the inverse kinematics, whose sign would switch the full
-/// Coulomb torque on in a direction chosen by the rounding (on the built-in pick and place
-/// that made every prediction 0.2-0.7 W too high: +0.4 to +0.8 % of its energy).
+/// Coulomb torque on in a direction chosen by the rounding and bias every prediction of such
+/// a move upwards.
 pub const REST_SPEED_EPS: f64 = 1e-9;
 
 /// `sign(x)` of a joint speed `x` (rad/s), and 0 where `|x| <= REST_SPEED_EPS` (the Coulomb
