@@ -81,8 +81,9 @@ impl PayloadNames {
         self.0.join(sep)
     }
 
-    /// Whether `name` names a built-in payload: a current name or an old alias.
-    pub fn contains(&self, name: &str) -> bool {
+    /// Whether `name` names a built-in payload: a current name or an old alias. Takes
+    /// `&&str` like a slice of names does (`PAYLOAD_NAMES.contains(&name)`).
+    pub fn contains(&self, name: &&str) -> bool {
         find(name).is_some()
     }
 }
