@@ -9,6 +9,13 @@ use std::path::PathBuf;
 pub type Result<T> = std::result::Result<T, Error>;
 
 /// Everything that can go wrong in powertwin.
+///
+/// What a caller can do about each: [`Error::InvalidInput`], [`Error::Toml`],
+/// [`Error::Table`], [`Error::Dataset`] and [`Error::UrdfSyntax`]: fix the input they name;
+/// [`Error::Model`]: the robot is not one powertwin supports; [`Error::Numerical`]: the input
+/// was accepted but a computation failed on it (report it, or change the data, e.g. a richer
+/// excitation); [`Error::Io`]: a file could not be read or written. The CLI exits 1 on any of
+/// them.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
@@ -123,7 +130,8 @@ pub(crate) fn catch_decoder_panic<T>(decode: impl FnOnce() -> T) -> std::result:
     })
 }
 
-/// Check that every value of a slice is finite; `what` names the quantity in the message.
+/// Check that every value of a slice of the caller's input is finite; `what` names the
+/// quantity in the message. Errors: [`Error::InvalidInput`].
 pub fn ensure_finite(values: &[f64], what: &str) -> Result<()> {
     match values.iter().position(|v| !v.is_finite()) {
         None => Ok(()),
@@ -133,4 +141,14 @@ pub fn ensure_finite(values: &[f64], what: &str) -> Result<()> {
             values[i]
         ))),
     }
+}
+
+/// Check that every value of a computed slice (an intermediate or final result, not the
+/// caller's input) is finite; `what` names the quantity in the message. Errors:
+/// [`Error::Numerical`].
+pub fn ensure_finite_result(values: &[f64], what: &str) -> Result<()> {
+    ensure_finite(values, what).map_err(|e| match e {
+        Error::InvalidInput(m) => Error::Numerical(m),
+        other => other,
+    })
 }

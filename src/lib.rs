@@ -46,7 +46,7 @@
 //! let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default())?;
 //! let zero = vec![0.0; robot.dof()];
 //! let tau = rnea_checked(&robot, &mut Workspace::new(&robot), &zero, &zero, &zero, None)?;
-//! let loaded = attach(&robot, &builtin::payload("load_4kg")?)?;
+//! let loaded = attach(&robot, &builtin::payload("liu2018_load_4kg")?)?;
 //! let tau4 = rnea_checked(&loaded, &mut Workspace::new(&loaded), &zero, &zero, &zero, None)?;
 //! assert!(tau4[1].abs() > tau[1].abs(), "joint 2 holds the load: {tau4:?} vs {tau:?}");
 //! # Ok::<(), powertwin::Error>(())

@@ -1,16 +1,31 @@
 //! `powertwin` command-line interface: a thin layer over the library.
+//!
+//! Exit codes (`cli::Exit`): 0 ok, 1 error, 2 usage, 3 results flagged.
 
 mod cli;
 
 use clap::Parser;
+use cli::Exit;
 
 fn main() -> std::process::ExitCode {
-    let args = cli::Cli::parse();
+    let args = match cli::Cli::try_parse() {
+        Ok(args) => args,
+        Err(e) => {
+            // Usage errors go to stderr (exit 2); --help and --version to stdout (exit 0).
+            let _ = e.print();
+            return if e.use_stderr() {
+                Exit::Usage
+            } else {
+                Exit::Ok
+            }
+            .into();
+        }
+    };
     match cli::run(args) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {}", chain_message(&e));
-            std::process::ExitCode::from(1)
+            Exit::Error.into()
         }
     }
 }

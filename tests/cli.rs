@@ -171,7 +171,8 @@ fn overloads_are_refused_and_failed_runs_flagged() {
     assert_eq!(cell["flagged"], true);
     assert!(cell["max_tracking_error_rad"].as_f64().unwrap() > 0.01);
     assert!(!cell["torque_limit_hits"].as_array().unwrap().is_empty());
-    // A drive rated for the load lets the sweep run, but the failed cell makes it exit 1.
+    // A drive rated for the load lets the sweep run, but the failed cell makes it exit 3
+    // (results flagged) after writing its outputs.
     let drive = tmp("heavy.drive.toml");
     let text = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/irb1200_7_70.drive.toml"),
@@ -182,11 +183,17 @@ fn overloads_are_refused_and_failed_runs_flagged() {
         text.replace("rated_payload_kg = 7.0", "rated_payload_kg = 2000.0"),
     )
     .unwrap();
-    let (code, _, err) = sweep(&["--out", &s(&tmp("overload-sweep-2")), "--drive", &s(&drive)]);
-    assert_eq!(code, 1);
+    let flagged_out = tmp("overload-sweep-2");
+    let (code, _, err) = sweep(&["--out", &s(&flagged_out), "--drive", &s(&drive)]);
+    assert_eq!(code, 3, "a flagged sweep exits 3: {err}");
     assert!(
         err.contains("1 of 1 sweep cells are flagged") && err.contains("torque saturated"),
         "{err}"
+    );
+    assert!(!err.contains("error:"), "flagged is not an error: {err}");
+    assert!(
+        flagged_out.join("sweep.json").exists(),
+        "outputs are written"
     );
     // simulate checks --payload the same way (before reading the trajectory).
     let (code, _, err) = powertwin(&[
@@ -205,4 +212,91 @@ fn overloads_are_refused_and_failed_runs_flagged() {
         err.contains("8 kg") && err.contains("rated payload of 7 kg"),
         "{err}"
     );
+}
+
+#[test]
+fn exit_codes_distinguish_usage_errors_and_flagged_results() {
+    // 2: the command line is wrong (clap's usage error).
+    let (code, _, err) = powertwin(&["sweep", "--no-such-option"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--no-such-option"), "{err}");
+    let (code, _, _) = powertwin(&["no-such-command"]);
+    assert_eq!(code, 2);
+    // --help and --version are not errors.
+    let (code, out, _) = powertwin(&["--help"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("Usage"), "{out}");
+    let (code, out, _) = powertwin(&["--version"]);
+    assert_eq!(code, 0);
+    assert!(out.contains(env!("CARGO_PKG_VERSION")), "{out}");
+    // 1: a bad file.
+    let bad = tmp("not-a-model.json");
+    std::fs::write(&bad, "{ not json").unwrap();
+    let (code, _, err) = powertwin(&[
+        "predict",
+        "--model",
+        bad.to_str().unwrap(),
+        "--data",
+        "unused",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.starts_with("error:") && err.contains("not valid JSON"),
+        "{err}"
+    );
+    // 3 (a flagged sweep) is checked in overloads_are_refused_and_failed_runs_flagged.
+}
+
+#[test]
+fn model_files_of_an_unknown_schema_version_are_refused() {
+    let file = tmp("future-model.json");
+    std::fs::write(
+        &file,
+        r#"{"method": "x", "model": {"schema_version": 99, "robot": "abb_irb1200_7_70"}}"#,
+    )
+    .unwrap();
+    let (code, _, err) = powertwin(&[
+        "predict",
+        "--model",
+        file.to_str().unwrap(),
+        "--data",
+        "unused",
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains(file.to_str().unwrap()),
+        "names the file: {err}"
+    );
+    assert!(
+        err.contains("schema_version 99 is not supported") && err.contains("version 1"),
+        "names the version: {err}"
+    );
+}
+
+#[test]
+fn builtin_payloads_warn_on_another_robot() {
+    let ur5 = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/ur5.urdf");
+    let simulate = |robot: Option<&str>, payload: &str| {
+        let mut args = vec!["simulate", "--payload", payload];
+        if let Some(r) = robot {
+            args.extend_from_slice(&["--robot", r]);
+        }
+        args.extend_from_slice(&["--trajectory", "unused.csv", "--out", "unused-simulate-out"]);
+        powertwin(&args)
+    };
+    // The old name is an alias; on the UR5 the IRB 1200's tool is warned about.
+    for name in ["liu2018_tool", "tool"] {
+        let (code, _, err) = simulate(Some(ur5.to_str().unwrap()), name);
+        assert_eq!(code, 1, "the trajectory is missing: {err}");
+        assert!(
+            err.contains(&format!("warning: built-in payload '{name}'"))
+                && err.contains("IRB 1200")
+                && err.contains("ur5"),
+            "{err}"
+        );
+    }
+    // On the IRB 1200 it is the robot's own: no warning.
+    let (code, _, err) = simulate(None, "liu2018_load_1kg");
+    assert_eq!(code, 1);
+    assert!(!err.contains("warning"), "{err}");
 }

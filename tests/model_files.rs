@@ -411,17 +411,20 @@ fn tool_payload_has_the_proposed_parameters() {
 
 #[test]
 fn builtin_payloads_load_by_name() {
-    for (name, mass, file) in [
-        ("tool", 1.32, "tool_1p32kg"),
-        ("load_1kg", 1.0, "load_1kg"),
-        ("load_2kg", 2.0, "load_2kg"),
-        ("load_4kg", 4.0, "load_4kg"),
+    for (name, alias, mass, file) in [
+        ("liu2018_tool", "tool", 1.32, "tool_1p32kg"),
+        ("liu2018_load_1kg", "load_1kg", 1.0, "load_1kg"),
+        ("liu2018_load_2kg", "load_2kg", 2.0, "load_2kg"),
+        ("liu2018_load_4kg", "load_4kg", 4.0, "load_4kg"),
     ] {
         let p = builtin::payload(name).unwrap();
         assert_eq!(p.inertia.mass, mass, "{name}");
         let on_disk = Payload::from_file(&repo(&format!("models/{file}.payload.toml"))).unwrap();
         assert_eq!(p, on_disk, "{name}");
-        if name != "tool" {
+        // The old name is an alias of the same payload.
+        assert_eq!(builtin::payload(alias).unwrap(), p, "{alias}");
+        assert!(builtin::PAYLOAD_NAMES.contains(&alias) && builtin::is_payload_name(alias));
+        if name != "liu2018_tool" {
             // Steel cube (7850 kg/m^3) with its COM at the tool's TCP.
             assert_eq!(p.inertia.com, Vector3::new(0.0, 0.0, 0.120));
             assert_eq!(p.tcp, None);
@@ -434,16 +437,64 @@ fn builtin_payloads_load_by_name() {
         }
     }
     assert_eq!(
-        builtin::PAYLOAD_NAMES,
-        ["tool", "load_1kg", "load_2kg", "load_4kg"]
+        builtin::PAYLOAD_NAMES.as_slice(),
+        [
+            "liu2018_tool",
+            "liu2018_load_1kg",
+            "liu2018_load_2kg",
+            "liu2018_load_4kg"
+        ]
     );
     let e = builtin::payload("load_3kg").unwrap_err();
     assert!(matches!(e, Error::InvalidInput(_)));
     let msg = e.to_string();
     assert!(
-        msg.contains("load_3kg") && msg.contains("tool, load_1kg, load_2kg, load_4kg"),
+        msg.contains("load_3kg")
+            && msg.contains("liu2018_tool, liu2018_load_1kg, liu2018_load_2kg, liu2018_load_4kg")
+            && msg.contains("tool, load_1kg, load_2kg, load_4kg"),
         "{msg}"
     );
+    assert!(!builtin::is_payload_name("load_3kg"));
+    // They are the IRB 1200's: a warning on another robot, none on the IRB 1200 or for files.
+    assert!(builtin::is_foreign_payload("tool", "ur5"));
+    assert!(!builtin::is_foreign_payload(
+        "liu2018_tool",
+        builtin::IRB1200_NAME
+    ));
+    assert!(!builtin::is_foreign_payload("my_tool.payload.toml", "ur5"));
+    let w = builtin::foreign_payload_warning("liu2018_load_2kg", "ur5").unwrap();
+    assert!(w.contains("liu2018_load_2kg") && w.contains("ur5"), "{w}");
+    assert_eq!(
+        builtin::foreign_payload_warning("liu2018_tool", builtin::IRB1200_NAME),
+        None
+    );
+}
+
+#[test]
+fn model_schema_version_is_written_and_checked() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::identification::model::{PowerModel, SCHEMA_VERSION, check_schema_version};
+    let robot = irb1200();
+    let model = PowerModel::new(&robot, ParamLayout::new(&robot, true, false), false).unwrap();
+    assert_eq!(SCHEMA_VERSION, 1);
+    let mut v = serde_json::to_value(&model).unwrap();
+    assert_eq!(v["schema_version"], 1, "written on save");
+    check_schema_version(&v).unwrap();
+    // A file without the field is version 1 and loads as before.
+    v.as_object_mut().unwrap().remove("schema_version");
+    check_schema_version(&v).unwrap();
+    let read: PowerModel = serde_json::from_value(v.clone()).unwrap();
+    assert_eq!(read, model);
+    read.validate(&robot).unwrap();
+    // An unknown version is refused before the rest is read, naming the version.
+    v["schema_version"] = serde_json::json!(2);
+    let e = check_schema_version(&v).unwrap_err();
+    assert!(matches!(e, Error::InvalidInput(_)));
+    assert!(e.to_string().contains("schema_version 2"), "{e}");
+    let mut future = model.clone();
+    future.schema_version = 2;
+    let e = future.validate(&robot).unwrap_err();
+    assert!(e.to_string().contains("schema_version 2"), "{e}");
 }
 
 const GOOD_PAYLOAD: &str = r#"

@@ -40,13 +40,19 @@ pub struct DatasetArgs {
     out: PathBuf,
 }
 
+/// The tool of every item when no --payload is given (built-in).
+const DEFAULT_TOOL: &str = "liu2018_tool";
+
 /// Run `dataset`.
 pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
-    let tool = setup
-        .payload
-        .clone()
-        .map_or_else(|| powertwin::model::builtin::payload("tool"), Ok)?;
+    let tool = match setup.payload.clone() {
+        Some(p) => p,
+        None => {
+            crate::cli::warn_foreign_payload(DEFAULT_TOOL, &setup.robot);
+            powertwin::model::builtin::payload(DEFAULT_TOOL)?
+        }
+    };
     let spec = BulkSpec {
         robot: &setup.robot,
         urdf: setup.urdf.clone(),

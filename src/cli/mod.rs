@@ -44,7 +44,7 @@ use clap::{Args, Parser, Subcommand};
 use powertwin::Robot;
 use powertwin::dataset::meta::Urdf;
 use powertwin::dataset::{Dataset, Format};
-use powertwin::identification::model::PowerModel;
+use powertwin::identification::model::{PowerModel, check_schema_version};
 use powertwin::measurement::PowerSignal;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
@@ -168,8 +168,10 @@ pub struct TwinArgs {
     /// drive for the built-in robot, else the URDF friction with ideal motors].
     #[arg(long, value_name = "PATH")]
     drive: Option<PathBuf>,
-    /// Payload attached to the flange throughout: a built-in name (tool, load_1kg, load_2kg,
-    /// load_4kg) or a payload TOML file; repeat to combine (e.g. --payload tool --payload load_2kg).
+    /// Payload attached to the flange throughout: a built-in name (liu2018_tool,
+    /// liu2018_load_1kg, liu2018_load_2kg, liu2018_load_4kg: the IRB 1200's, Liu et al. 2018;
+    /// the old names tool, load_1kg, ... are accepted) or a payload TOML file; repeat to combine
+    /// (e.g. --payload liu2018_tool --payload liu2018_load_2kg).
     #[arg(long, value_name = "NAME|PATH")]
     payload: Vec<String>,
     /// Physics step (torque held over it), s.
@@ -293,6 +295,7 @@ impl TwinArgs {
             let one = if std::path::Path::new(p).exists() {
                 Payload::from_file(std::path::Path::new(p))?
             } else {
+                warn_foreign_payload(p, &robot);
                 builtin::payload(p)?
             };
             payload = Some(match payload {
@@ -331,6 +334,14 @@ impl TwinArgs {
     }
 }
 
+/// Print a warning to stderr when the built-in payload `name` (the IRB 1200's) is used on
+/// another robot; nothing for the IRB 1200 or a payload file.
+pub fn warn_foreign_payload(name: &str, robot: &Robot) {
+    if let Some(warning) = builtin::foreign_payload_warning(name, robot.name()) {
+        eprintln!("warning: {warning}");
+    }
+}
+
 /// Write command output to stdout. A closed pipe (e.g. `powertwin model | head`) is not an
 /// error: the reader has all it wanted.
 pub fn emit(text: &str) -> Result<()> {
@@ -342,13 +353,16 @@ pub fn emit(text: &str) -> Result<()> {
     }
 }
 
-/// Read a model file written by `identify` (or a bare model) for `robot`.
+/// Read a model file written by `identify` (or a bare model) for `robot`: its
+/// `schema_version` is checked first (see docs/design/model-schema.md).
 pub fn read_model(path: &Path, robot: &Robot) -> Result<PowerModel> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text)
         .with_context(|| format!("{}: not valid JSON", path.display()))?;
-    let model: PowerModel = serde_json::from_value(v.get("model").cloned().unwrap_or(v))
+    let v = v.get("model").cloned().unwrap_or(v);
+    check_schema_version(&v).with_context(|| format!("reading {}", path.display()))?;
+    let model: PowerModel = serde_json::from_value(v)
         .with_context(|| format!("{}: not a powertwin model", path.display()))?;
     model
         .validate(robot)
@@ -393,7 +407,7 @@ pub fn sweep_name(cell: &Cell) -> String {
 pub struct OverloadArgs {
     /// Run payloads above the robot's rated payload (rated_payload_kg in the drive file), and
     /// exit 0 although sweep cells saturate a torque or track worse than 0.05 rad (they are
-    /// still flagged in every output).
+    /// still flagged in every output; without this option `sweep` exits 3 on flagged cells).
     #[arg(long)]
     allow_overload: bool,
 }
@@ -417,6 +431,15 @@ impl OverloadArgs {
     /// Refuse the sweep's flagged cells (torque saturated, tracking lost) unless overloads
     /// are allowed, listing each with its reason. Run after every output is written.
     pub fn check_cells(&self, cells: &[Cell]) -> Result<()> {
+        match self.flagged_cells(cells) {
+            Some(message) => Err(anyhow::anyhow!(message)),
+            None => Ok(()),
+        }
+    }
+
+    /// The message listing the sweep's flagged cells (torque saturated, tracking lost), each
+    /// with its reason; `None` when no cell is flagged or overloads are allowed.
+    pub fn flagged_cells(&self, cells: &[Cell]) -> Option<String> {
         let flagged: Vec<String> = cells
             .iter()
             .filter_map(|c| {
@@ -425,15 +448,50 @@ impl OverloadArgs {
             })
             .collect();
         if flagged.is_empty() || self.allow_overload {
-            return Ok(());
+            return None;
         }
-        anyhow::bail!(
+        Some(format!(
             "{} of {} sweep cells are flagged: the twin did not perform the task as planned, so \
              their energies are not the task's ({}); pass --allow-overload to accept them",
             flagged.len(),
             cells.len(),
             flagged.join("; ")
-        )
+        ))
+    }
+}
+
+/// The exit status of `powertwin` (documented in docs/guide/cli.md, "Exit codes").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Exit {
+    /// 0: the command succeeded.
+    Ok,
+    /// 1: the command failed (bad input, unreadable file, unsupported robot, numerical
+    /// failure); the message is on stderr.
+    Error,
+    /// 2: the command line is wrong (unknown command or option, missing or malformed
+    /// argument); clap prints the usage on stderr.
+    Usage,
+    /// 3: the command ran and wrote its outputs, but some results are flagged and should not
+    /// be trusted as they are (e.g. a `sweep` cell whose torque saturated); the reasons are
+    /// on stderr.
+    Flagged,
+}
+
+impl Exit {
+    /// The numeric status.
+    pub const fn code(self) -> u8 {
+        match self {
+            Exit::Ok => 0,
+            Exit::Error => 1,
+            Exit::Usage => 2,
+            Exit::Flagged => 3,
+        }
+    }
+}
+
+impl From<Exit> for ExitCode {
+    fn from(exit: Exit) -> Self {
+        ExitCode::from(exit.code())
     }
 }
 

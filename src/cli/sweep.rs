@@ -12,7 +12,7 @@ use powertwin::validation::sweep::{self, Sweep};
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
+use crate::cli::{Exit, OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
 
 /// Arguments of `sweep`.
 ///
@@ -21,6 +21,10 @@ use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all
 /// (cells, energy-optimal speed per load, Pareto front) and energy_vs_speed.svg/.png under
 /// --out. With --model, the identified model (from `identify`) predicts every cell from the
 /// plan and the known tool and loads.
+///
+/// Exits 3 (after writing every output) when a cell is flagged: a torque saturated or the
+/// tracking error exceeded 0.05 rad, so its energy is not the task's; --allow-overload
+/// accepts such cells (exit 0, still flagged in the outputs).
 #[derive(Debug, Args)]
 pub struct SweepArgs {
     #[command(flatten)]
@@ -140,8 +144,14 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     } else {
         table(&result)
     })?;
-    args.overload.check_cells(&result.cells)?;
-    Ok(ExitCode::SUCCESS)
+    Ok(match args.overload.flagged_cells(&result.cells) {
+        Some(message) => {
+            eprintln!("flagged: {message}");
+            Exit::Flagged
+        }
+        None => Exit::Ok,
+    }
+    .into())
 }
 
 /// The cells as a text table.

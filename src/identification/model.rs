@@ -26,9 +26,39 @@ use crate::trajectory::Trajectory;
 /// no-identification baseline; never read from a twin's drives.
 pub const DATASHEET_EFFICIENCY: f64 = 0.87;
 
-/// Base-parameter power model of one robot.
+/// Version of the model file schema (the `model` object of `model.json`) that this library
+/// writes and reads; see docs/design/model-schema.md. A file without `schema_version` is
+/// version 1.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The schema version of a file that does not state one.
+fn unversioned_schema() -> u32 {
+    1
+}
+
+/// Check the `schema_version` of a serialised [`PowerModel`] (a JSON object) before reading
+/// it: absent means version 1; any version other than [`SCHEMA_VERSION`] is an
+/// [`Error::InvalidInput`] naming it (the caller adds the file name).
+pub fn check_schema_version(model: &serde_json::Value) -> Result<()> {
+    match model.get("schema_version") {
+        None => Ok(()),
+        Some(v) if v.as_u64() == Some(u64::from(SCHEMA_VERSION)) => Ok(()),
+        Some(v) => Err(Error::InvalidInput(format!(
+            "model schema_version {v} is not supported: this powertwin ({}) reads schema \
+             version {SCHEMA_VERSION} (see docs/design/model-schema.md)",
+            env!("CARGO_PKG_VERSION")
+        ))),
+    }
+}
+
+/// Base-parameter power model of one robot. Serialised as the `model` object of
+/// `model.json` (schema: docs/design/model-schema.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PowerModel {
+    /// Version of the file schema ([`SCHEMA_VERSION`] when written by this library; 1 when a
+    /// file does not state it).
+    #[serde(default = "unversioned_schema")]
+    pub schema_version: u32,
     /// Robot name (a model only applies to its robot).
     pub robot: String,
     /// Parameter layout of the underlying standard vector.
@@ -73,6 +103,7 @@ impl PowerModel {
     pub fn new(robot: &Robot, layout: ParamLayout, efficiency_scaled: bool) -> Result<PowerModel> {
         let base = BaseParams::compute(robot, layout, &SamplingOptions::default())?;
         Ok(PowerModel {
+            schema_version: SCHEMA_VERSION,
             robot: robot.name().to_string(),
             layout,
             names: base.base_names(),
@@ -88,9 +119,16 @@ impl PowerModel {
         })
     }
 
-    /// Check a model read from a file against `robot`: the robot, the vector lengths, finite
+    /// Check a model read from a file against `robot`: the schema version, the robot, the vector lengths, finite
     /// values, and a covariance of the right size. Errors name the field.
     pub fn validate(&self, robot: &Robot) -> Result<()> {
+        if self.schema_version != SCHEMA_VERSION {
+            return Err(Error::InvalidInput(format!(
+                "model file: schema_version {} is not supported (this powertwin reads version \
+                 {SCHEMA_VERSION})",
+                self.schema_version
+            )));
+        }
         self.check_robot(robot)?;
         let n = robot.dof();
         let nb = self.columns.len();

@@ -30,8 +30,9 @@ impl Viz {
     /// mass at the flange, [`Viz::log_payload_events`]) and every via point reached, at
     /// their times on `sim_time`.
     ///
-    /// Fails with [`Error::InvalidInput`] when `display_hz` is not positive and finite, the
-    /// plan's duration is not, or a position or time is not finite.
+    /// Fails with [`Error::InvalidInput`] when `display_hz` is not positive and finite or a
+    /// position or time is not finite, and with [`Error::Numerical`] when the plan's duration
+    /// is not finite and non-negative.
     pub fn log_task(
         &self,
         robot: &Robot,
@@ -65,7 +66,7 @@ impl Viz {
         let traj = &run.motion.trajectory;
         let duration = run.motion.duration_s;
         if !(duration.is_finite() && duration >= 0.0) {
-            return Err(Error::InvalidInput(format!(
+            return Err(Error::Numerical(format!(
                 "the plan lasts {duration} s; expected a finite, non-negative duration"
             )));
         }
