@@ -64,10 +64,9 @@ pub struct ReproduceArgs {
     /// vary between identifications (one run scores one model).
     #[arg(long, default_value_t = 0)]
     noise_seed: u64,
-    /// Rapier substeps per 1 ms physics step, as `simulate`. The worst joint's torque residual
-    /// against exact inverse dynamics on Rapier's motion (tests/twin.rs swing, with and
-    /// without the rated 7 kg) is 0.017 % at 6, within the 0.02 % fidelity target; 3
-    /// (0.033 %) saves a few seconds of the run.
+    /// Rapier substeps per 1 ms physics step, as `simulate`. The default keeps the twin's
+    /// torque residual against exact inverse dynamics within the 0.02 % fidelity target
+    /// (tests/twin.rs); fewer substeps run faster and less exactly (docs/experiments.md).
     #[arg(long, default_value_t = DEFAULT_SUBSTEPS)]
     substeps: usize,
     /// Table format of the datasets.
