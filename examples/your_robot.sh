@@ -4,7 +4,7 @@
 #   bash examples/your_robot.sh [WORKDIR]
 # Here the twin stands in for your robot and writes its logs as a data logger would (time,
 # joint positions, DC-bus power); with your own arm, start at step 1 with your CSV/Parquet
-# logs and a column map (docs/your-robot.md, docs/log-columns.md, `--columns ur-rtde`).
+# logs and a column map (docs/guide/your-robot.md, docs/guide/log-columns.md, `--columns ur-rtde`).
 set -euo pipefail
 W=${1:-$(mktemp -d)}
 mkdir -p "$W"

@@ -16,16 +16,20 @@ use powertwin::report::figures::figures;
 use powertwin::report::markdown::render;
 use powertwin::report::plot::write_chart;
 use powertwin::report::results::{Results, Settings};
+use powertwin::report::summary::{DEFAULT_RUN, results_markdown};
 use powertwin::trajectory::task::Scenario;
-use powertwin::twin::TwinConfig;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
+use powertwin::twin::{Fidelity, TwinConfig};
 use powertwin::validation::reproduce::{Outcome, Plan, StageTime, run as run_plan};
 use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
 use crate::cli::{TruthArgs, emit, noise_settings, sweep_name, write_all};
+
+/// Rapier substeps per physics step unless `--substeps` says otherwise.
+const DEFAULT_SUBSTEPS: usize = 6;
 
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);
@@ -60,11 +64,10 @@ pub struct ReproduceArgs {
     /// vary between identifications (one run scores one model).
     #[arg(long, default_value_t = 0)]
     noise_seed: u64,
-    /// Rapier substeps per 1 ms physics step, as `simulate`. The worst joint's torque residual
-    /// against exact inverse dynamics on Rapier's motion (tests/twin.rs swing, with and
-    /// without the rated 7 kg) is 0.017 % at 6, within the 0.02 % fidelity target; 3
-    /// (0.033 %) saves a few seconds of the run.
-    #[arg(long, default_value_t = 6)]
+    /// Rapier substeps per 1 ms physics step, as `simulate`. The default keeps the twin's
+    /// torque residual against exact inverse dynamics within the 0.02 % fidelity target
+    /// (tests/twin.rs); fewer substeps run faster and less exactly (docs/experiments.md).
+    #[arg(long, default_value_t = DEFAULT_SUBSTEPS)]
     substeps: usize,
     /// Table format of the datasets.
     #[arg(long, default_value = "parquet")]
@@ -198,9 +201,48 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         &args.out.join("report.md"),
         render(&results, &plots).as_bytes(),
     )?;
+    let value = serde_json::to_value(&results).context("serialising results.md's input")?;
+    powertwin::io::write_atomic(
+        &args.out.join("results.md"),
+        results_markdown(&value, &command_line(args)).as_bytes(),
+    )?;
     emit(&summary(&results, &args.out))?;
     args.overload.check_cells(&results.sweep.cells)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The command line that gives this run's figures: `powertwin reproduce` and every option that
+/// changes a number (not `--out`, `--format`, the Rerun sinks or `--allow-overload`).
+fn command_line(args: &ReproduceArgs) -> String {
+    let mut line = DEFAULT_RUN.to_string();
+    if args.quick {
+        line.push_str(" --quick");
+    }
+    if let Some(path) = &args.scenario {
+        line.push_str(&format!(" --scenario {}", path.display()));
+    }
+    if args.motor != MotorModel::Pmsm {
+        line.push_str(&format!(" --motor {}", args.motor.name()));
+    }
+    if args.truth.truth != Fidelity::Realistic {
+        line.push_str(" --truth exact");
+    }
+    if let Some(e) = args.truth.nominal_error {
+        line.push_str(&format!(" --nominal-error {e}"));
+    }
+    if let Some(p) = args.truth.power_signal {
+        line.push_str(&format!(" --power-signal {}", p.name()));
+    }
+    if let Some(noise) = &args.noise {
+        line.push_str(&format!(" --noise {noise}"));
+    }
+    if args.noise_seed != 0 {
+        line.push_str(&format!(" --noise-seed {}", args.noise_seed));
+    }
+    if args.substeps != DEFAULT_SUBSTEPS {
+        line.push_str(&format!(" --substeps {}", args.substeps));
+    }
+    line
 }
 
 /// Every twin dataset, named by experiment.
@@ -326,7 +368,7 @@ fn summary(r: &Results, out: &Path) -> String {
     };
     outln!(
         o,
-        "Wrote {}/report.md, results.json, model.json{recording}, plots/ and datasets/ in {:.1} s.",
+        "Wrote {}/report.md, results.md, results.json, model.json{recording}, plots/ and datasets/ in {:.1} s.",
         out.display(),
         r.total_wall_s
     );

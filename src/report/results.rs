@@ -1,6 +1,6 @@
 //! `results.json`: the machine-readable outcome of `powertwin reproduce`. The schema is the
 //! serialisation of [`Results`]; every field is documented here and in
-//! `docs/results-schema.md`. Energies in J, powers in W, speeds in m/s, masses in kg, times
+//! `docs/design/results-schema.md`. Energies in J, powers in W, speeds in m/s, masses in kg, times
 //! in s, errors in % of the simulated value (`100 (predicted - simulated) / simulated`).
 
 use serde::Serialize;
