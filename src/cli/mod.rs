@@ -428,12 +428,16 @@ impl OverloadArgs {
         self.allow_overload
     }
 
-    /// Refuse the sweep's flagged cells (torque saturated, tracking lost) unless overloads
-    /// are allowed, listing each with its reason. Run after every output is written.
-    pub fn check_cells(&self, cells: &[Cell]) -> Result<()> {
+    /// The exit status of a command that ran the sweep's `cells` and wrote its outputs:
+    /// [`Exit::Flagged`] (with the flagged cells listed on stderr) when a cell is flagged and
+    /// overloads are not allowed, else [`Exit::Ok`].
+    pub fn exit_for(&self, cells: &[Cell]) -> Exit {
         match self.flagged_cells(cells) {
-            Some(message) => Err(anyhow::anyhow!(message)),
-            None => Ok(()),
+            Some(message) => {
+                eprintln!("flagged: {message}");
+                Exit::Flagged
+            }
+            None => Exit::Ok,
         }
     }
 

@@ -207,8 +207,7 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         results_markdown(&value, &command_line(args)).as_bytes(),
     )?;
     emit(&summary(&results, &args.out))?;
-    args.overload.check_cells(&results.sweep.cells)?;
-    Ok(ExitCode::SUCCESS)
+    Ok(args.overload.exit_for(&results.sweep.cells).into())
 }
 
 /// The command line that gives this run's figures: `powertwin reproduce` and every option that

@@ -12,7 +12,7 @@ use powertwin::validation::sweep::{self, Sweep};
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{Exit, OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
+use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
 
 /// Arguments of `sweep`.
 ///
@@ -144,14 +144,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
     } else {
         table(&result)
     })?;
-    Ok(match args.overload.flagged_cells(&result.cells) {
-        Some(message) => {
-            eprintln!("flagged: {message}");
-            Exit::Flagged
-        }
-        None => Exit::Ok,
-    }
-    .into())
+    Ok(args.overload.exit_for(&result.cells).into())
 }
 
 /// The cells as a text table.
