@@ -220,6 +220,21 @@ fn model_parameters(w: &mut String, r: &Results) {
 pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     let mut s = String::new();
     let w = &mut s;
+    intro(w, r);
+    heldout(w, r);
+    model_parameters(w, r);
+    table3(w, r);
+    estimators(w, r);
+    table2(w, r);
+    table4(w, r);
+    figure14(w, r);
+    plots_section(w, plots);
+    timings(w, r);
+    s
+}
+
+/// The title, the run's settings and how the errors are defined.
+fn intro(w: &mut String, r: &Results) {
     let st = &r.settings;
     let _ = writeln!(w, "# powertwin reproduce: Liu et al. 2018 on the twin\n");
     let _ = writeln!(
@@ -248,10 +263,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
          power only (the twin's truth only scores). Errors are \
          `100 (predicted - simulated) / simulated`.\n"
     );
+}
 
-    heldout(w, r);
-    model_parameters(w, r);
-
+/// The in-sample tables' caveat and Table 3: the six identification steps.
+fn table3(w: &mut String, r: &Results) {
     let _ = writeln!(
         w,
         "## In-sample tables (the paper's experiments)\n\nEvery table below predicts the \
@@ -295,7 +310,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 .map_or("".into(), |p| format!("{p}"))
         );
     }
+}
 
+/// Every estimator on the steps' data (in-sample), with its consistency.
+fn estimators(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Estimators on the same data (in-sample)\n");
     let _ = writeln!(
         w,
@@ -329,7 +347,11 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             }
         );
     }
+}
 
+/// Table 2 per estimator: identified vs true base parameters.
+fn table2(w: &mut String, r: &Results) {
+    let st = &r.settings;
     for e in &r.estimators {
         let rows = &e.table2;
         let well: Vec<_> = rows
@@ -381,7 +403,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             );
         }
     }
+}
 
+/// Table 4: tool and loads on step 6's trajectory.
+fn table4(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Table 4: tool and loads on step 6's trajectory\n");
     let _ = writeln!(
         w,
@@ -419,7 +444,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 .map_or("".into(), |p| format!("{p}"))
         );
     }
+}
 
+/// Figure 14: the pick-and-place sweep, its optima and the Pareto front.
+fn figure14(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Figure 14: pick-and-place speed x load sweep\n");
     let _ = writeln!(
         w,
@@ -502,7 +530,20 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
         "\nEnergy / cycle-time Pareto front per load: {}.",
         front.join(", ")
     );
+}
 
+/// The wall time of every stage.
+fn timings(w: &mut String, r: &Results) {
+    let _ = writeln!(w, "## Timings\n");
+    header(w, &["stage", "wall s"]);
+    for t in &r.timings {
+        let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
+    }
+    let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
+}
+
+/// The charts, with their captions (`plots`: file stem and caption).
+fn plots_section(w: &mut String, plots: &[(String, String)]) {
     if !plots.is_empty() {
         let _ = writeln!(w, "\n## Plots\n");
         for (stem, caption) in plots {
@@ -512,13 +553,6 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             );
         }
     }
-    let _ = writeln!(w, "## Timings\n");
-    header(w, &["stage", "wall s"]);
-    for t in &r.timings {
-        let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
-    }
-    let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
-    s
 }
 
 /// A Markdown table header: the column names and the separator line.
