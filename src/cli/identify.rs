@@ -78,8 +78,8 @@ pub struct RouteArgs {
     #[arg(long, default_value_t = 5)]
     harmonics: usize,
     /// Instead of the spline route, a local quartic through this many samples (odd, at least
-    /// 5: the route before the spline; on the held-out benchmark 5 samples at 10 Hz, 9 at
-    /// 100 Hz did best, though the spline did better still at 10 Hz).
+    /// 5: the route before the spline; 5 suits 10 Hz logs, 9 suits 100 Hz, see
+    /// docs/experiments.md#smoothing-window).
     #[arg(long, value_name = "SAMPLES", conflicts_with = "base_freq")]
     smoothing_window: Option<usize>,
 }

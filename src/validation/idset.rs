@@ -45,12 +45,9 @@ pub struct IdSetOptions {
     /// Stretches of 10 s each excitation runs (whole periods of its base frequency).
     pub periods: usize,
     /// Length of an extra run holding the robot (without payload) at its
-    /// [`standby_pose`], s; 0: none. Its log pins the standby power: on the IRB 1200's twin
-    /// (realistic truth, default design, 20 s) the identified standby came out 18.38 W
-    /// instead of 18.07 W for the drives' 18.5 W, but the held-out errors were mixed (worst
-    /// from the log 1.34 to 1.87 %, 1.70 to 2.34 % and 1.29 to 1.76 % on three held-out
-    /// seeds; above standby from the plan 4.1 to 1.7 % on the first), so
-    /// [`IdSetOptions::irb1200`] has none.
+    /// [`standby_pose`], s; 0: none. Its log pins the standby power; [`IdSetOptions::irb1200`]
+    /// has none (it did not improve the held-out benchmark, see
+    /// docs/experiments.md#standby-rest-run).
     pub standby_rest_s: f64,
     /// Criterion of the set design.
     pub criterion: SetCriterion,
@@ -67,26 +64,10 @@ pub struct IdSetOptions {
 impl IdSetOptions {
     /// Eight excitations of the IRB 1200 about centres spread over the workspace, with 0, 2,
     /// 4.5, 7 (the rated payload), 1, 3, 5.5 and 6 kg at the flange; three 10 s stretches each.
-    /// `quick`: the first four with two stretches, smaller designs (one stretch made the quick
-    /// sweep's worst cell 2.6 % instead of 0.7 %).
+    /// `quick`: the first four with two stretches, smaller designs.
     ///
-    /// Why three stretches: against two (default noise, eight noise draws and held-out seed
-    /// pairs, 6 Rapier substeps) the exact truth's held-out worst energy error from the log
-    /// went from 0.14-0.53 % to 0.14-0.33 % and the realistic truth's from 0.99-2.25 % to
-    /// 0.93-1.97 % (above standby 1.9-5.1 % to 2.0-4.5 %); without sensor noise, 30 base
-    /// parameters instead of 29 have a relative std under 1 %, all within 1.42 % of the truth.
-    /// `reproduce` takes about 1.5-2 s more (27.5-29.6 s over six runs, within its 30 s).
-    ///
-    /// Why eight: over five design seeds (101-105) the realistic truth's held-out worst
-    /// energy error from the log was 1.16-1.82 % with eight excitations and 1.13-2.60 % with
-    /// four (two of five above 2 %, one with its intervals covering 30 % of the motions); the
-    /// exact truth's worst was 0.17-1.02 % and 0.28-0.98 %. `reproduce` takes about 4 s more.
-    ///
-    /// Power-level weighting: at 6 Rapier substeps, design seed 104 with ordinary least
-    /// squares put the standby at 19.4 W and missed held-out motions by up to 3.3 % (12.7 %
-    /// above standby, intervals covering 23 %); weighted, 1.2 % and 3.5 %. Over seeds
-    /// 101-105 the worst from the log went 1.48 / 1.51 / 1.70 / 3.28 / 1.01 % to
-    /// 1.34 / 1.51 / 1.98 / 1.21 / 1.00 %; the exact truth's is unchanged (0.15 %).
+    /// Three stretches, eight excitations and the power-level weighting were chosen on the
+    /// held-out benchmark, see docs/experiments.md#identification-set-design.
     pub fn irb1200(quick: bool) -> IdSetOptions {
         let mut o = IdSetOptions {
             centres: vec![

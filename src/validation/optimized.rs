@@ -196,7 +196,7 @@ pub fn check(
     let mut it = checks.into_iter();
     let uniform = it
         .next()
-        .ok_or_else(|| Error::InvalidInput("no plan checked".into()))?;
+        .ok_or_else(|| Error::Numerical("no plan checked".into()))?;
     let plans = it
         .map(|c| {
             let saving = Saving::of(&c, &uniform);
