@@ -383,7 +383,7 @@ fn identify_paper(
                 bail!("per-joint identification needs the power of every motor in every log");
             }
             vec![linear::identify(
-                &robot,
+                robot,
                 &mut model,
                 &states,
                 Observation::JointPower,

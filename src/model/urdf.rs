@@ -266,7 +266,7 @@ fn walk<'a>(tree: &Tree<'a>) -> Result<Walk<'a>> {
             let origin =
                 pose(&j.origin).map_err(|e| Error::Model(format!("joint '{}': {e}", j.name)))?;
             let world = v.world * origin;
-            let body = if is_moving(j, &locked)? {
+            let body = if is_moving(j, locked)? {
                 if moving.len() != v.body {
                     let sibling = moving[v.body].name.as_str();
                     return Err(Error::Model(format!(
