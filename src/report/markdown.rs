@@ -27,6 +27,13 @@ fn durations(d: &[f64]) -> String {
 
 /// The held-out benchmark: the accuracy a user can expect on motions the model never saw.
 fn heldout(w: &mut String, r: &Results) {
+    heldout_intro(w, r);
+    heldout_summary(w, r);
+    heldout_motions(w, r);
+}
+
+/// How the held-out model was identified and what the benchmark predicts.
+fn heldout_intro(w: &mut String, r: &Results) {
     let h = &r.heldout;
     let m = &r.model;
     let _ = writeln!(w, "## Held-out benchmark (out of sample)\n");
@@ -99,6 +106,11 @@ fn heldout(w: &mut String, r: &Results) {
         h.motions.len(),
         h.seed
     );
+}
+
+/// The benchmark's error statistics per prediction, and the power RMSE.
+fn heldout_summary(w: &mut String, r: &Results) {
+    let h = &r.heldout;
     header(
         w,
         &[
@@ -142,6 +154,11 @@ fn heldout(w: &mut String, r: &Results) {
         h.baseline_power_rmse_w.p95,
         h.baseline_power_rmse_w.worst
     );
+}
+
+/// One row per held-out motion.
+fn heldout_motions(w: &mut String, r: &Results) {
+    let h = &r.heldout;
     header(
         w,
         &[
