@@ -12,7 +12,9 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
 use crate::identification::excitation::standby_pose;
-use crate::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
+use crate::identification::excitation_set::{
+    Member, SetCriterion, SetDesign, SetOptions, design_set,
+};
 use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
 use crate::model::payload::{Payload, PayloadEvent};
@@ -23,9 +25,22 @@ use crate::validation::rig::{Progress, Rig};
 /// Harmonics of each excitation (and of the Fourier route its log is read along).
 const HARMONICS: usize = 5;
 
-/// Workspace of the excitations and the standby pose: margin inside the position limits, rad,
-/// floor height and base-column radius, m.
-const WORKSPACE: (f64, f64, f64) = (0.05, 0.05, 0.15);
+/// Workspace of the excitations and the standby pose.
+struct Workspace {
+    /// Margin inside the position limits, rad.
+    margin_rad: f64,
+    /// Lowest height of the TCP above the base, m.
+    floor_z_m: f64,
+    /// Radius of the base column the TCP keeps out of, m.
+    base_radius_m: f64,
+}
+
+/// The workspace of the identification set.
+const WORKSPACE: Workspace = Workspace {
+    margin_rad: 0.05,
+    floor_z_m: 0.05,
+    base_radius_m: 0.15,
+};
 
 /// Centre of mass of the identification loads in the flange frame, m (a cube bolted to the
 /// flange face).
@@ -133,6 +148,52 @@ pub struct IdSet {
 /// Design, run and identify the set on `rig`.
 pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<IdSet> {
     let robot = rig.robot;
+    check_options(opts)?;
+    let payloads = load_payloads(opts)?;
+    progress.stage("identification set: joint design", 1);
+    let design = design(rig, opts, &payloads)?;
+    progress.advance();
+    let (standby, rest) = standby_rest(rig, opts)?;
+    let members = opts.centres.len();
+    let plans: Vec<(Fourier, Option<Payload>)> = design
+        .trajectories
+        .into_iter()
+        .zip(payloads)
+        .chain(rest.map(|t| (t, None)))
+        .collect();
+    let runs = run_twin(rig, opts, plans, members, progress)?;
+    let logs = runs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| r.dataset.log(&format!("identification run {}", k + 1)))
+        .collect::<Result<Vec<_>>>()?;
+    progress.stage("identification: cross-validated fit", 1);
+    let selection = identify_logs(robot, &logs, &routes(opts, runs.len()), &opts.fit)?;
+    progress.advance();
+    let mut set = IdSet {
+        trajectories: Vec::new(),
+        conds: design.member_conds,
+        set_cond: design.cond_final,
+        design_s: design.wall_s,
+        criterion: opts.criterion,
+        rounds: opts.rounds,
+        weighting: opts.fit.weighting,
+        standby,
+        payloads: Vec::new(),
+        datasets: Vec::new(),
+        logs,
+        selection,
+    };
+    for r in runs {
+        set.trajectories.push(r.trajectory);
+        set.payloads.push(r.events);
+        set.datasets.push(r.dataset);
+    }
+    Ok(set)
+}
+
+/// Refuse options of inconsistent lengths and a bad standby rest.
+fn check_options(opts: &IdSetOptions) -> Result<()> {
     if opts.centres.is_empty()
         || opts.centres.len() != opts.loads_kg.len()
         || opts.centres.len() != opts.base_freq_hz.len()
@@ -150,24 +211,32 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             opts.standby_rest_s
         )));
     }
-    let payloads = opts
-        .loads_kg
+    Ok(())
+}
+
+/// The known load of every excitation (None: nothing on the flange).
+fn load_payloads(opts: &IdSetOptions) -> Result<Vec<Option<Payload>>> {
+    opts.loads_kg
         .iter()
         .map(|&load| {
             (load > 0.0)
                 .then(|| Payload::cube(&format!("load {load} kg"), load, LOAD_COM_M.into()))
                 .transpose()
         })
-        .collect::<Result<Vec<_>>>()?;
-    progress.stage("identification set: joint design", 1);
-    let design = design_set(
+        .collect::<Result<Vec<_>>>()
+}
+
+/// The joint design of the excitations.
+fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Result<SetDesign> {
+    let robot = rig.robot;
+    design_set(
         robot,
         &SetOptions {
             members: opts
                 .centres
                 .iter()
                 .zip(&opts.base_freq_hz)
-                .zip(&payloads)
+                .zip(payloads)
                 .map(|((centre, &f), payload)| Member {
                     centre: centre.clone(),
                     base_freq_hz: f,
@@ -181,21 +250,28 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             min_speed: opts.fit.min_speed,
             criterion: opts.criterion,
             accel_limits: opts.accel_limits.clone(),
-            position_margin: WORKSPACE.0,
+            position_margin: WORKSPACE.margin_rad,
             limit_fraction: 0.9,
-            floor_z: WORKSPACE.1,
-            base_radius: WORKSPACE.2,
+            floor_z: WORKSPACE.floor_z_m,
+            base_radius: WORKSPACE.base_radius_m,
             rounds: opts.rounds,
             max_evals: opts.max_evals,
             seed: opts.seed,
         },
-    )?;
-    progress.advance();
-    // The standby rest: a zero-amplitude series, the robot held still at the pose.
+    )
+}
+
+/// The standby pose and the URDF's gravity torques there, as [`standby_pose`] gives them.
+type Standby = (Vec<f64>, Vec<f64>);
+
+/// The standby rest, if asked: the pose (with its gravity torques) and a zero-amplitude
+/// series, the robot held still at the pose.
+fn standby_rest(rig: &Rig, opts: &IdSetOptions) -> Result<(Option<Standby>, Option<Fourier>)> {
+    let robot = rig.robot;
     let standby = (opts.standby_rest_s > 0.0)
         .then(|| {
-            let (margin, floor, radius) = WORKSPACE;
-            standby_pose(robot, margin, floor, radius)
+            let w = &WORKSPACE;
+            standby_pose(robot, w.margin_rad, w.floor_z_m, w.base_radius_m)
         })
         .transpose()?;
     let rest = standby
@@ -211,15 +287,27 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             )
         })
         .transpose()?;
-    let members = opts.centres.len();
-    let plans: Vec<(Fourier, Option<Payload>)> = design
-        .trajectories
-        .into_iter()
-        .zip(payloads)
-        .chain(rest.map(|t| (t, None)))
-        .collect();
+    Ok((standby, rest))
+}
+
+/// One twin run of the set: the trajectory, the payload timeline and the logged dataset.
+struct TwinRun {
+    trajectory: Fourier,
+    events: Vec<PayloadEvent>,
+    dataset: Dataset,
+}
+
+/// Run every plan on the twin in parallel; the first `members` are the excitations, any
+/// further one the standby rest.
+fn run_twin(
+    rig: &Rig,
+    opts: &IdSetOptions,
+    plans: Vec<(Fourier, Option<Payload>)>,
+    members: usize,
+    progress: &dyn Progress,
+) -> Result<Vec<TwinRun>> {
     progress.stage("identification set: twin runs", plans.len());
-    let runs: Vec<(Fourier, Vec<PayloadEvent>, Dataset)> = plans
+    plans
         .into_par_iter()
         .enumerate()
         .map(|(k, (traj, payload))| {
@@ -245,18 +333,19 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             });
             let ds = rig.run(&traj, &events, 100 + k as u64, description)?;
             progress.advance();
-            Ok((traj, events, ds))
+            Ok(TwinRun {
+                trajectory: traj,
+                events,
+                dataset: ds,
+            })
         })
-        .collect::<Result<_>>()?;
-    let logs = runs
-        .iter()
-        .enumerate()
-        .map(|(k, r)| r.2.log(&format!("identification run {}", k + 1)))
-        .collect::<Result<Vec<_>>>()?;
-    progress.stage("identification: cross-validated fit", 1);
-    // The excitations along their Fourier series; the rest along the spline route, which
-    // holds it exactly still.
-    let routes: Vec<Route> = (0..runs.len())
+        .collect()
+}
+
+/// The route each of the `runs` logs is read along: the excitations along their Fourier
+/// series; the rest along the spline route, which holds it exactly still.
+fn routes(opts: &IdSetOptions, runs: usize) -> Vec<Route> {
+    (0..runs)
         .map(|k| match opts.base_freq_hz.get(k) {
             Some(&f) => Route::Fourier {
                 base_freq_hz: f,
@@ -264,27 +353,5 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             },
             None => Route::Spline,
         })
-        .collect();
-    let selection = identify_logs(robot, &logs, &routes, &opts.fit)?;
-    progress.advance();
-    let mut set = IdSet {
-        trajectories: Vec::new(),
-        conds: design.member_conds,
-        set_cond: design.cond_final,
-        design_s: design.wall_s,
-        criterion: opts.criterion,
-        rounds: opts.rounds,
-        weighting: opts.fit.weighting,
-        standby,
-        payloads: Vec::new(),
-        datasets: Vec::new(),
-        logs,
-        selection,
-    };
-    for (traj, events, ds) in runs {
-        set.trajectories.push(traj);
-        set.payloads.push(events);
-        set.datasets.push(ds);
-    }
-    Ok(set)
+        .collect()
 }
