@@ -19,8 +19,8 @@
 //!   estimated and, if asked, applied ([`crate::measurement::lag`]).
 //! - A corrupt Parquet file is an error, also where the Parquet decoder panics on it.
 //!
-//! [`read_log`] runs its stages in this order: [`files`] opens the file and reads the wanted
-//! columns, then [`stages`] drops rows with missing cells, converts to SI, repairs the time
+//! [`read_log`] runs its stages in this order: `files` opens the file and reads the wanted
+//! columns, then `stages` drops rows with missing cells, converts to SI, repairs the time
 //! base, splits at gaps and resamples, aligns the power by its lag, and cuts the logs.
 
 mod files;

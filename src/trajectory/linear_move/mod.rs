@@ -50,6 +50,11 @@
 //! whole segment in time, which scales joint velocities by `1/k` and accelerations by `1/k^2`.
 //! Each slowed segment is reported in [`LinearMotion::slowed`]. A segment that would need less
 //! than [`MIN_SPEED_FRACTION`] of its planned speed is an error.
+//!
+//! [`SCurve`]: super::s_curve::SCurve
+//! [`Opw::solve_nearest`]: crate::kinematics::ik::Opw::solve_nearest
+//! [`dls::solve_held`]: crate::kinematics::dls::solve_held
+//! [`bias_acceleration`]: crate::kinematics::jacobian::bias_acceleration
 
 mod checks;
 mod segment;
