@@ -108,7 +108,7 @@ fn optimised_timing_keeps_its_bounds_and_saves_what_it_predicts() {
         check_limits(&robot, &run.motion.trajectory, 0.001, None).unwrap();
     }
     assert!(!checked.uniform.flagged);
-    let (plan, saving) = &checked.plans[0];
+    let (plan, saving) = (&checked.plans[0].check, &checked.plans[0].saving);
     assert!(!plan.flagged, "{plan:?}");
     assert!(plan.cycle_time_s <= slow.bound_s + 1e-9);
     assert!(plan.braked_s > 1.0, "{plan:?}");
@@ -172,7 +172,7 @@ fn a_better_placement_saves_over_ten_percent_at_the_fast_plans_cycle_time() {
     for run in &checked.runs {
         check_limits(&robot, &run.motion.trajectory, 0.001, None).unwrap();
     }
-    let (plan, saving) = &checked.plans[0];
+    let (plan, saving) = (&checked.plans[0].check, &checked.plans[0].saving);
     assert!(!plan.flagged, "{plan:?}");
     assert!(plan.cycle_time_s <= found.bound_s + 1e-9);
     // Measured with the full reproduce model (CLI): predicted 11.9 +- 2.1 %, twin 11.9 %, the

@@ -12,8 +12,9 @@ use powertwin::dynamics::ParamLayout;
 use powertwin::identification::consistency::consistency;
 use powertwin::identification::data::{Prepared, Route, ensure_motion, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
-use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_logs};
+use powertwin::identification::fit::{CvScore, Estimator, FitOptions, Weighting, identify_logs};
 use powertwin::identification::linear::{self, Observation};
+use powertwin::identification::lsq::Estimate;
 use powertwin::identification::model::PowerModel;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
@@ -77,8 +78,8 @@ pub struct RouteArgs {
     #[arg(long, default_value_t = 5)]
     harmonics: usize,
     /// Instead of the spline route, a local quartic through this many samples (odd, at least
-    /// 5: the route before the spline; on the held-out benchmark 5 samples at 10 Hz, 9 at
-    /// 100 Hz did best, though the spline did better still at 10 Hz).
+    /// 5: the route before the spline; 5 suits 10 Hz logs, 9 suits 100 Hz, see
+    /// docs/experiments.md#smoothing-window).
     #[arg(long, value_name = "SAMPLES", conflicts_with = "base_freq")]
     smoothing_window: Option<usize>,
 }
@@ -244,6 +245,19 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let min_speed = args
         .min_speed
         .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
+    check_method(args, &logs, fitted, min_speed)?;
+    let route = args.route.route();
+    let identified = if fitted {
+        identify_fitted(args, &robot, &logs, route, min_speed)?
+    } else {
+        identify_paper(args.method, &robot, &logs, route, min_speed)?
+    };
+    write_and_report(args, &robot, &identified)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Refuse options that do not apply to the method.
+fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64) -> Result<()> {
     if min_speed > 0.0 && args.method == Method::Energy {
         bail!(
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
@@ -265,131 +279,173 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             args.method
         );
     }
-    let route = args.route.route();
-    let layout = ParamLayout::new(&robot, true, true);
-    let (model, estimates, cv) = if fitted {
-        let candidates = match args.method {
-            Method::Total => vec![Estimator::Total],
-            Method::Pmsm => vec![Estimator::Pmsm],
-            _ => vec![Estimator::Total, Estimator::Pmsm],
-        };
-        let opts = FitOptions {
-            min_speed,
-            candidates,
-            weighting: args
-                .weighting
-                .map_or(FitOptions::default().weighting, Into::into),
-            consistent: !args.unconstrained,
-            motor_power: !args.arm_power_only,
-            ..FitOptions::default()
-        };
-        let sel = identify_logs(&robot, &logs, &[route], &opts)?;
-        eprintln!(
-            "fitted on {}",
-            match (sel.motor_power, args.arm_power_only) {
-                (true, _) => "the arm's power and each motor's",
-                (false, true) => "the arm's power (--arm-power-only)",
-                (false, false) => "the arm's power (the logs do not all have each motor's)",
-            }
-        );
-        for c in &sel.scores {
-            eprintln!(
-                "cross-validation {}: mean-power error {:.3} W, power RMSE {:.3} W over {} held-out pieces",
-                c.estimator.name(),
-                c.mean_power_rms_w,
-                c.power_rmse_w,
-                c.pieces
-            );
-        }
-        if let Some(c) = &sel.consistent {
-            eprintln!(
-                "consistent: the model moved {:.3} (Mahalanobis) from the estimate, at most {:.3} standard deviations per value",
-                c.mahalanobis, c.max_change_sigma
-            );
-        }
-        (
-            sel.fit.model.clone(),
-            vec![sel.fit.free_estimate()],
-            sel.scores,
-        )
-    } else {
-        let prepared: Vec<Prepared> = logs
-            .iter()
-            .map(|l| {
-                let mut p = prepare(l, route).with_context(|| format!("preparing {}", l.source))?;
-                if min_speed > 0.0 {
-                    let dropped = p.drop_slow_samples(min_speed)?;
-                    eprintln!(
-                        "{}: {dropped} samples with an excited joint below {min_speed} rad/s dropped",
-                        l.source
-                    );
-                }
-                Ok(p)
-            })
-            .collect::<Result<_>>()?;
-        ensure_motion(&prepared)?;
-        let mut model = PowerModel::new(&robot, layout, true)?;
-        let estimates = match args.method {
-            Method::PerJoint => {
-                let mut states = prepared[0].states.clone();
-                for p in &prepared[1..] {
-                    states.append(&p.states)?;
-                }
-                let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_joint.clone()).collect();
-                if y.len() != states.len() * robot.dof() {
-                    bail!("per-joint identification needs the power of every motor in every log");
-                }
-                vec![linear::identify(
-                    &robot,
-                    &mut model,
-                    &states,
-                    Observation::JointPower,
-                    &y,
-                )?]
-            }
-            Method::Energy => {
-                let energies: Vec<Vec<f64>> = prepared
-                    .iter()
-                    .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
-                    .collect();
-                let windows: Vec<Windows> = prepared
-                    .iter()
-                    .zip(&energies)
-                    .map(|(p, e)| Windows {
-                        motion: p.motion.as_ref(),
-                        t: &p.states.t,
-                        energy: e,
-                    })
-                    .collect();
-                vec![energy::identify(&robot, &mut model, &windows)?]
-            }
-            _ => {
-                let data: Vec<StepData> = prepared
-                    .into_iter()
-                    .map(|p| {
-                        let mut states = p.states;
-                        hold_still(&mut states, &p.excited);
-                        StepData {
-                            joints: p.excited,
-                            states,
-                            p_total: p.p_total,
-                        }
-                    })
-                    .collect();
-                steps::identify(&robot, &mut model, &data)?
-                    .into_iter()
-                    .map(|r| r.estimate)
-                    .collect()
-            }
-        };
-        model.signal = logs[0].signal;
-        (model, estimates, Vec::new())
+    Ok(())
+}
+
+/// An identified model with its estimates and, for the fitted methods, the
+/// cross-validation scores.
+struct Identified {
+    model: PowerModel,
+    /// The parameter estimates, the last being the model's.
+    estimates: Vec<Estimate>,
+    /// Cross-validation score per candidate estimator (empty for the paper's methods).
+    cross_validation: Vec<CvScore>,
+}
+
+/// `--method auto`, `total` or `pmsm`: the fitted estimators, chosen by cross-validation.
+fn identify_fitted(
+    args: &IdentifyArgs,
+    robot: &Robot,
+    logs: &[Log],
+    route: Route,
+    min_speed: f64,
+) -> Result<Identified> {
+    let candidates = match args.method {
+        Method::Total => vec![Estimator::Total],
+        Method::Pmsm => vec![Estimator::Pmsm],
+        _ => vec![Estimator::Total, Estimator::Pmsm],
     };
+    let opts = FitOptions {
+        min_speed,
+        candidates,
+        weighting: args
+            .weighting
+            .map_or(FitOptions::default().weighting, Into::into),
+        consistent: !args.unconstrained,
+        motor_power: !args.arm_power_only,
+        ..FitOptions::default()
+    };
+    let sel = identify_logs(robot, logs, &[route], &opts)?;
+    eprintln!(
+        "fitted on {}",
+        match (sel.motor_power, args.arm_power_only) {
+            (true, _) => "the arm's power and each motor's",
+            (false, true) => "the arm's power (--arm-power-only)",
+            (false, false) => "the arm's power (the logs do not all have each motor's)",
+        }
+    );
+    for c in &sel.scores {
+        eprintln!(
+            "cross-validation {}: mean-power error {:.3} W, power RMSE {:.3} W over {} held-out pieces",
+            c.estimator.name(),
+            c.mean_power_rms_w,
+            c.power_rmse_w,
+            c.pieces
+        );
+    }
+    if let Some(c) = &sel.consistent {
+        eprintln!(
+            "consistent: the model moved {:.3} (Mahalanobis) from the estimate, at most {:.3} standard deviations per value",
+            c.mahalanobis, c.max_change_sigma
+        );
+    }
+    Ok(Identified {
+        model: sel.fit.model.clone(),
+        estimates: vec![sel.fit.free_estimate()],
+        cross_validation: sel.scores,
+    })
+}
+
+/// `--method paper-steps`, `per-joint` or `energy`: the paper's linear estimators on the
+/// prepared logs.
+fn identify_paper(
+    method: Method,
+    robot: &Robot,
+    logs: &[Log],
+    route: Route,
+    min_speed: f64,
+) -> Result<Identified> {
+    let layout = ParamLayout::new(robot, true, true);
+    let prepared: Vec<Prepared> = logs
+        .iter()
+        .map(|l| {
+            let mut p = prepare(l, route).with_context(|| format!("preparing {}", l.source))?;
+            if min_speed > 0.0 {
+                let dropped = p.drop_slow_samples(min_speed)?;
+                eprintln!(
+                    "{}: {dropped} samples with an excited joint below {min_speed} rad/s dropped",
+                    l.source
+                );
+            }
+            Ok(p)
+        })
+        .collect::<Result<_>>()?;
+    ensure_motion(&prepared)?;
+    let mut model = PowerModel::new(robot, layout, true)?;
+    let estimates = match method {
+        Method::PerJoint => {
+            let mut states = prepared[0].states.clone();
+            for p in &prepared[1..] {
+                states.append(&p.states)?;
+            }
+            let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_joint.clone()).collect();
+            if y.len() != states.len() * robot.dof() {
+                bail!("per-joint identification needs the power of every motor in every log");
+            }
+            vec![linear::identify(
+                robot,
+                &mut model,
+                &states,
+                Observation::JointPower,
+                &y,
+            )?]
+        }
+        Method::Energy => {
+            let energies: Vec<Vec<f64>> = prepared
+                .iter()
+                .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
+                .collect();
+            let windows: Vec<Windows> = prepared
+                .iter()
+                .zip(&energies)
+                .map(|(p, e)| Windows {
+                    motion: p.motion.as_ref(),
+                    t: &p.states.t,
+                    energy: e,
+                })
+                .collect();
+            vec![energy::identify(robot, &mut model, &windows)?]
+        }
+        _ => {
+            let data: Vec<StepData> = prepared
+                .into_iter()
+                .map(|p| {
+                    let mut states = p.states;
+                    hold_still(&mut states, &p.excited);
+                    StepData {
+                        joints: p.excited,
+                        states,
+                        p_total: p.p_total,
+                    }
+                })
+                .collect();
+            steps::identify(robot, &mut model, &data)?
+                .into_iter()
+                .map(|r| r.estimate)
+                .collect()
+        }
+    };
+    model.signal = logs[0].signal;
+    Ok(Identified {
+        model,
+        estimates,
+        cross_validation: Vec::new(),
+    })
+}
+
+/// Check the model's physical consistency, export it if asked, write `--out` and print the
+/// summary.
+fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified) -> Result<()> {
+    let Identified {
+        model,
+        estimates,
+        cross_validation: cv,
+    } = identified;
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
-    let consistency = consistency(&robot, &model, 1.0, 200, 1)?;
+    let consistency = consistency(robot, model, 1.0, 200, 1)?;
     super::export::export(
-        &robot,
-        &model,
+        robot,
+        model,
         estimates.last(),
         args.export_urdf.as_deref(),
         args.export_drive.as_deref(),
@@ -429,5 +485,5 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
             consistency.negative_drive_terms.join(", ")
         }
     );
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use powertwin::identification::model::DATASHEET_EFFICIENCY;
+use powertwin::model::drive::Brakes;
 use powertwin::optimize::placement::{self, PlacementSearch, SearchBox};
 use powertwin::optimize::schedule::Schedule;
 use powertwin::optimize::segment::Task;
@@ -14,11 +15,11 @@ use powertwin::optimize::{self, CycleBound, FrontPoint, Optimized, Options, Unif
 use powertwin::report::figures::{pareto_chart, plan_power_chart};
 use powertwin::report::plot::write_chart;
 use powertwin::trajectory::task::Scenario;
-use powertwin::validation::optimized::{self, Candidate, PlanCheck, Saving};
+use powertwin::validation::optimized::{self, Candidate, Checked, PlanCheck, Saving};
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, write_all};
+use crate::cli::{OverloadArgs, Setup, TwinArgs, emit, read_model, write_all};
 
 /// Arguments of `optimize`.
 ///
@@ -142,17 +143,7 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
         ),
     )?;
     let model = read_model(&args.model, &setup.robot)?;
-    let search_box = match args.search_offset.as_slice() {
-        [] => None,
-        [x, y, z, yaw] => Some(SearchBox {
-            half_m: [*x, *y, *z],
-            half_yaw_rad: yaw.to_radians(),
-        }),
-        other => bail!(
-            "--search-offset takes 4 values (X,Y,Z,YAW_DEG), got {}",
-            other.len()
-        ),
-    };
+    let search_box = search_box(&args.search_offset)?;
     let bound = match (args.cycle_time, args.max_slowdown) {
         (Some(s), _) => CycleBound::Seconds(s),
         (None, Some(p)) => CycleBound::SlowdownPct(p),
@@ -172,48 +163,133 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
     let started = std::time::Instant::now();
     let found = optimize::optimize(&task, args.speed, bound, brakes, &opts)
         .context("optimising the task's timing")?;
-    let placed: Option<(PlacementSearch, Scenario, Schedule)> = match &search_box {
-        Some(area) => {
-            let search = placement::search(&task, args.speed, found.bound_s, area)
-                .context("searching placements")?;
-            let moved = search.moved(&scenario);
-            let moved_task = Task {
-                scenario: &moved,
-                ..task
-            };
-            let at_best = optimize::optimize(
-                &moved_task,
-                args.speed,
-                CycleBound::Seconds(found.bound_s),
-                brakes,
-                &opts,
-            )
-            .context("optimising the task at the best placement")?;
-            Some((search, moved, at_best.schedule))
-        }
+    let placed = match &search_box {
+        Some(area) => Some(search_placement(
+            &task, args.speed, &found, area, brakes, &opts,
+        )?),
         None => None,
     };
     let optimise_s = started.elapsed().as_secs_f64();
+    let checked = check_on_twin(&setup, &task, &found, placed.as_ref())?;
+    let json = write_outputs(args, &scenario, &found, placed.as_ref(), &checked)?;
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        log_viz(viz, &setup.robot, &scenario, &checked)?;
+    }
+    emit(&if args.json {
+        json + "\n"
+    } else {
+        summary(
+            &found,
+            &checked,
+            placed.as_ref().map(|p| &p.search),
+            optimise_s,
+        )
+    })?;
+    refuse_flagged(&checked, args)
+}
+
+/// The placement search area of `--search-offset` (X,Y,Z in m, YAW in degrees), if given.
+fn search_box(offset: &[f64]) -> Result<Option<SearchBox>> {
+    Ok(match offset {
+        [] => None,
+        [x, y, z, yaw] => Some(SearchBox {
+            half_m: [*x, *y, *z],
+            half_yaw_rad: yaw.to_radians(),
+        }),
+        other => bail!(
+            "--search-offset takes 4 values (X,Y,Z,YAW_DEG), got {}",
+            other.len()
+        ),
+    })
+}
+
+/// The best placement found in the search area, the task moved there, and its optimised
+/// timing.
+struct Placed {
+    search: PlacementSearch,
+    moved: Scenario,
+    schedule: Schedule,
+}
+
+/// Search placements in `area` for the cycle-time bound `found` chose, then optimise the
+/// timing at the best one.
+fn search_placement(
+    task: &Task,
+    speed: f64,
+    found: &Optimized,
+    area: &SearchBox,
+    brakes: Option<&Brakes>,
+    opts: &Options,
+) -> Result<Placed> {
+    let search =
+        placement::search(task, speed, found.bound_s, area).context("searching placements")?;
+    let moved = search.moved(task.scenario);
+    let moved_task = Task {
+        scenario: &moved,
+        ..*task
+    };
+    let at_best = optimize::optimize(
+        &moved_task,
+        speed,
+        CycleBound::Seconds(found.bound_s),
+        brakes,
+        opts,
+    )
+    .context("optimising the task at the best placement")?;
+    Ok(Placed {
+        search,
+        moved,
+        schedule: at_best.schedule,
+    })
+}
+
+/// Run the uniform plan, the optimised one and (if any) the one at the best placement on the
+/// twin, with progress bars.
+fn check_on_twin(
+    setup: &Setup,
+    task: &Task,
+    found: &Optimized,
+    placed: Option<&Placed>,
+) -> Result<Checked> {
     let rig = setup.rig();
     let bars = Bars::new();
     let mut candidates = vec![Candidate {
         name: "optimized",
-        task,
+        task: *task,
         schedule: &found.schedule,
     }];
-    if let Some((_, moved, schedule)) = &placed {
+    if let Some(p) = placed {
         candidates.push(Candidate {
             name: "optimized at the best placement",
             task: Task {
-                scenario: moved,
-                ..task
+                scenario: &p.moved,
+                ..*task
             },
-            schedule,
+            schedule: &p.schedule,
         });
     }
-    let checked = optimized::check(&rig, &task, &found, &candidates, &bars)?;
+    let checked = optimized::check(&rig, task, found, &candidates, &bars)?;
     bars.finish();
+    Ok(checked)
+}
 
+/// The twin runs' datasets with their plan names: the uniform plan first.
+fn traces(checked: &Checked) -> Vec<(&str, &powertwin::dataset::Dataset)> {
+    std::iter::once("uniform")
+        .chain(checked.plans.iter().map(|p| p.check.name.as_str()))
+        .zip(&checked.datasets)
+        .collect()
+}
+
+/// Write the datasets, plan.json and the charts under `--out`; returns plan.json's text.
+fn write_outputs(
+    args: &OptimizeArgs,
+    scenario: &Scenario,
+    found: &Optimized,
+    placed: Option<&Placed>,
+    checked: &Checked,
+) -> Result<String> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let names: Vec<(String, &powertwin::dataset::Dataset)> = ["uniform", "optimized", "placed"]
@@ -222,14 +298,15 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
         .map(|(n, d)| (n.to_string(), d))
         .collect();
     write_all(&names, &args.out, args.twin.format)?;
-    let (opt_check, saving) = &checked.plans[0];
+    let optimised = &checked.plans[0];
+    let (opt_check, saving) = (&optimised.check, &optimised.saving);
     let file = PlanFile {
         scenario: &scenario.name,
         load_kg: args.load,
         reference_speed_m_s: args.speed,
         cycle_time_bound_s: found.bound_s,
         uniform: &found.uniform,
-        segments: segments_out(&scenario, &found),
+        segments: segments_out(scenario, found),
         cycle_time_s: found.schedule.cycle_time_s,
         predicted_j: opt_check.predicted_j,
         predicted_saving_pct: saving.predicted_saving_pct,
@@ -237,13 +314,13 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
         saving_interval_95_pct: saving.interval_95_pct,
         within_interval: saving.within_interval,
         twin: std::iter::once(&checked.uniform)
-            .chain(checked.plans.iter().map(|(c, _)| c))
+            .chain(checked.plans.iter().map(|p| &p.check))
             .collect(),
-        placement: placed.as_ref().map(|(search, _, schedule)| PlacementOut {
-            search,
-            optimized_predicted_j: checked.plans[1].0.predicted_j,
-            optimized_cycle_time_s: schedule.cycle_time_s,
-            saving: checked.plans[1].1,
+        placement: placed.map(|p| PlacementOut {
+            search: &p.search,
+            optimized_predicted_j: checked.plans[1].check.predicted_j,
+            optimized_cycle_time_s: p.schedule.cycle_time_s,
+            saving: checked.plans[1].saving,
         }),
         pareto: &found.front,
         uniform_curve: &found.uniform_curve,
@@ -251,63 +328,62 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
     };
     let json = serde_json::to_string_pretty(&file).context("serialising plan.json")?;
     powertwin::io::write_atomic(&args.out.join("plan.json"), json.as_bytes())?;
-    write_chart(&pareto_chart(&found), &args.out, "pareto", 960, 600)?;
-    let traces: Vec<(&str, &powertwin::dataset::Dataset)> = std::iter::once("uniform")
-        .chain(checked.plans.iter().map(|(c, _)| c.name.as_str()))
-        .zip(&checked.datasets)
+    write_chart(&pareto_chart(found), &args.out, "pareto", 960, 600)?;
+    write_chart(
+        &plan_power_chart(&traces(checked)),
+        &args.out,
+        "power",
+        960,
+        600,
+    )?;
+    Ok(json)
+}
+
+/// Send the plans' twin runs, planned motions and brake events to Rerun, side by side.
+#[cfg(feature = "viz")]
+fn log_viz(
+    viz: &powertwin::viz::Viz,
+    robot: &powertwin::Robot,
+    scenario: &Scenario,
+    checked: &Checked,
+) -> Result<()> {
+    let traces = traces(checked);
+    let tcp = scenario.tcp();
+    let prefixes: Vec<String> = traces
+        .iter()
+        .map(|(name, _)| format!("optimize/{}", powertwin::viz::path_part(name)))
         .collect();
-    write_chart(&plan_power_chart(&traces), &args.out, "power", 960, 600)?;
-    #[cfg(feature = "viz")]
-    if let Some(viz) = &viz {
-        let tcp = scenario.tcp();
-        let prefixes: Vec<String> = traces
+    viz.send_blueprint(&[powertwin::viz::Tab::Compare {
+        title: "uniform and optimised plans".into(),
+        prefixes: prefixes.clone(),
+    }])?;
+    for (((prefix, (_, ds)), run), windows) in prefixes
+        .iter()
+        .zip(&traces)
+        .zip(&checked.runs)
+        .zip(&checked.brakes)
+    {
+        let events: Vec<(f64, String)> = windows
             .iter()
-            .map(|(name, _)| format!("optimize/{}", powertwin::viz::path_part(name)))
+            .flat_map(|w| {
+                [
+                    (w.start_s, "brakes hold (servos off)".to_string()),
+                    (w.end_s, "brakes released".to_string()),
+                ]
+            })
             .collect();
-        viz.send_blueprint(&[powertwin::viz::Tab::Compare {
-            title: "uniform and optimised plans".into(),
-            prefixes: prefixes.clone(),
-        }])?;
-        for (((prefix, (_, ds)), run), windows) in prefixes
-            .iter()
-            .zip(&traces)
-            .zip(&checked.runs)
-            .zip(&checked.brakes)
-        {
-            let events: Vec<(f64, String)> = windows
-                .iter()
-                .flat_map(|w| {
-                    [
-                        (w.start_s, "brakes hold (servos off)".to_string()),
-                        (w.end_s, "brakes released".to_string()),
-                    ]
-                })
-                .collect();
-            viz.log_events(&events, prefix)?;
-            viz.log_run(
-                &setup.robot,
-                ds,
-                None,
-                prefix,
-                powertwin::viz::DEFAULT_DISPLAY_HZ,
-            )?;
-            viz.log_task(
-                &setup.robot,
-                run,
-                &tcp,
-                prefix,
-                powertwin::viz::DEFAULT_DISPLAY_HZ,
-            )?;
-        }
-        viz.flush()?;
+        viz.log_events(&events, prefix)?;
+        viz.log_run(robot, ds, None, prefix, powertwin::viz::DEFAULT_DISPLAY_HZ)?;
+        viz.log_task(robot, run, &tcp, prefix, powertwin::viz::DEFAULT_DISPLAY_HZ)?;
     }
-    emit(&if args.json {
-        json + "\n"
-    } else {
-        summary(&found, &checked, placed.as_ref().map(|p| &p.0), optimise_s)
-    })?;
+    viz.flush()?;
+    Ok(())
+}
+
+/// Refuse (unless `--allow-overload`) plans the twin did not perform as planned.
+fn refuse_flagged(checked: &Checked, args: &OptimizeArgs) -> Result<ExitCode> {
     let flagged: Vec<&str> = std::iter::once(&checked.uniform)
-        .chain(checked.plans.iter().map(|(c, _)| c))
+        .chain(checked.plans.iter().map(|p| &p.check))
         .filter(|c| c.flagged)
         .map(|c| c.name.as_str())
         .collect();
@@ -367,7 +443,8 @@ fn summary(
         u.interval_j,
         u.simulated_j
     );
-    for (c, s) in &checked.plans {
+    for p in &checked.plans {
+        let (c, s) = (&p.check, &p.saving);
         outln!(
             o,
             "{}: cycle {:.3} s (bound {:.3} s), predicted {:.1} +- {:.1} J, twin {:.1} J, \
@@ -396,7 +473,7 @@ fn summary(
     let timing_saving = checked
         .plans
         .first()
-        .map_or(0.0, |(_, s)| s.predicted_saving_pct);
+        .map_or(0.0, |p| p.saving.predicted_saving_pct);
     if placed.is_none() && timing_saving < 1.0 {
         // The least energy per cycle at any cycle time the front spans.
         let least = found

@@ -17,9 +17,8 @@
 //! accelerations are central differences of the (logged or differentiated) positions on the
 //! actual, possibly non-uniform, time stamps.
 //!
-//! Measured on a 25 Hz twin log with DC-bus power (tests/logs.rs): the estimate is within
-//! about half a sample period of the true lag (0 and 0.2 s tried); without the pose terms
-//! it was off by 0.06-0.3 s. Treat it as good to about one sample period.
+//! Treat the estimate as good to about one sample period (tests/logs.rs checks it on a twin
+//! log; see docs/experiments.md#power-lag-estimate).
 
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;

@@ -130,65 +130,122 @@ fn is_moving(j: &urdf_rs::Joint, locked: &HashSet<&str>) -> Result<bool> {
 }
 
 fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
-    let mut links: HashMap<&str, &urdf_rs::Link> = HashMap::new();
-    for l in &urdf.links {
-        if links.insert(l.name.as_str(), l).is_some() {
-            return Err(Error::Model(format!("link '{}' is defined twice", l.name)));
-        }
-    }
-    let mut joint_names = HashSet::new();
-    let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
-    let mut children: HashMap<&str, Vec<&urdf_rs::Joint>> = HashMap::new();
-    for j in &urdf.joints {
-        if !joint_names.insert(j.name.as_str()) {
-            return Err(Error::Model(format!("joint '{}' is defined twice", j.name)));
-        }
-        for end in [&j.parent.link, &j.child.link] {
-            if !links.contains_key(end.as_str()) {
-                return Err(Error::Model(format!(
-                    "joint '{}' refers to unknown link '{end}'",
-                    j.name
-                )));
+    let tree = Tree::index(urdf, opts)?;
+    let walk = walk(&tree)?;
+    let frames = mdh_frames(&walk)?;
+    let merged = merge_bodies(&tree, &walk, &frames)?;
+    let joints = joints(&walk, &frames)?;
+    let mut bodies = merged.bodies;
+    let base = bodies.remove(0);
+    Robot::new(
+        urdf.name.clone(),
+        base,
+        joints,
+        bodies,
+        merged.flange.pose,
+        merged.flange.name,
+    )
+}
+
+/// The URDF's links and joints indexed by name, checked to form one tree.
+struct Tree<'a> {
+    /// Links by name.
+    links: HashMap<&'a str, &'a urdf_rs::Link>,
+    /// The joints leaving each link.
+    children: HashMap<&'a str, Vec<&'a urdf_rs::Joint>>,
+    /// Joints locked at zero ([`LoadOptions::lock`]).
+    locked: HashSet<&'a str>,
+    /// The root link.
+    root: &'a str,
+}
+
+impl<'a> Tree<'a> {
+    /// Index the links and joints; refuse duplicates, unknown links, a link with two parents,
+    /// an unknown locked joint, and anything but one root.
+    fn index(urdf: &'a urdf_rs::Robot, opts: &'a LoadOptions) -> Result<Tree<'a>> {
+        let mut links: HashMap<&str, &urdf_rs::Link> = HashMap::new();
+        for l in &urdf.links {
+            if links.insert(l.name.as_str(), l).is_some() {
+                return Err(Error::Model(format!("link '{}' is defined twice", l.name)));
             }
         }
-        if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
-            return Err(Error::Model(format!(
-                "link '{}' has two parent joints ('{}' and '{}')",
-                j.child.link, other.name, j.name
-            )));
+        let mut joint_names = HashSet::new();
+        let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+        let mut children: HashMap<&str, Vec<&urdf_rs::Joint>> = HashMap::new();
+        for j in &urdf.joints {
+            if !joint_names.insert(j.name.as_str()) {
+                return Err(Error::Model(format!("joint '{}' is defined twice", j.name)));
+            }
+            for end in [&j.parent.link, &j.child.link] {
+                if !links.contains_key(end.as_str()) {
+                    return Err(Error::Model(format!(
+                        "joint '{}' refers to unknown link '{end}'",
+                        j.name
+                    )));
+                }
+            }
+            if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
+                return Err(Error::Model(format!(
+                    "link '{}' has two parent joints ('{}' and '{}')",
+                    j.child.link, other.name, j.name
+                )));
+            }
+            children.entry(j.parent.link.as_str()).or_default().push(j);
         }
-        children.entry(j.parent.link.as_str()).or_default().push(j);
-    }
-    let locked: HashSet<&str> = opts.lock.iter().map(String::as_str).collect();
-    for name in &locked {
-        if !joint_names.contains(name) {
-            return Err(Error::Model(format!("--lock names unknown joint '{name}'")));
+        let locked: HashSet<&str> = opts.lock.iter().map(String::as_str).collect();
+        for name in &locked {
+            if !joint_names.contains(name) {
+                return Err(Error::Model(format!("--lock names unknown joint '{name}'")));
+            }
         }
-    }
-    let roots: Vec<&str> = urdf
-        .links
-        .iter()
-        .map(|l| l.name.as_str())
-        .filter(|n| !parent_of.contains_key(n))
-        .collect();
-    let root = match roots.as_slice() {
-        [r] => *r,
-        [] => return Err(Error::Model("the link tree has no root (cycle?)".into())),
-        many => {
-            return Err(Error::Model(format!(
-                "the URDF has {} root links ({}); a robot is one connected tree",
-                many.len(),
-                many.join(", ")
-            )));
-        }
-    };
+        let roots: Vec<&str> = urdf
+            .links
+            .iter()
+            .map(|l| l.name.as_str())
+            .filter(|n| !parent_of.contains_key(n))
+            .collect();
+        let root = match roots.as_slice() {
+            [r] => *r,
+            [] => return Err(Error::Model("the link tree has no root (cycle?)".into())),
+            many => {
+                return Err(Error::Model(format!(
+                    "the URDF has {} root links ({}); a robot is one connected tree",
+                    many.len(),
+                    many.join(", ")
+                )));
+            }
+        };
 
-    // Walk the tree at q = 0: world pose of every link and the body (0 = base) it belongs to.
-    struct Visit<'a> {
-        link: &'a str,
-        world: Isometry3<f64>,
-        body: usize,
+        Ok(Tree {
+            links,
+            children,
+            locked,
+            root,
+        })
     }
+}
+
+/// A link reached in the walk at q = 0: its world pose and the body (0 = base) it belongs to.
+struct Visit<'a> {
+    link: &'a str,
+    world: Isometry3<f64>,
+    body: usize,
+}
+
+/// The tree walked at q = 0.
+struct Walk<'a> {
+    /// Every link, with its world pose and body.
+    visits: Vec<Visit<'a>>,
+    /// The moving joints from the base out.
+    moving: Vec<&'a urdf_rs::Joint>,
+    /// World pose of every moving joint's frame at q = 0.
+    moving_joint_world: Vec<Isometry3<f64>>,
+}
+
+/// Walk the tree at q = 0 from the root; refuse a cycle, a branching chain of moving joints
+/// and a robot without one.
+fn walk<'a>(tree: &Tree<'a>) -> Result<Walk<'a>> {
+    let (children, locked, root) = (&tree.children, &tree.locked, tree.root);
     let mut visits: Vec<Visit> = Vec::new();
     let mut moving: Vec<&urdf_rs::Joint> = Vec::new();
     let mut moving_joint_world: Vec<Isometry3<f64>> = Vec::new();
@@ -209,7 +266,7 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
             let origin =
                 pose(&j.origin).map_err(|e| Error::Model(format!("joint '{}': {e}", j.name)))?;
             let world = v.world * origin;
-            let body = if is_moving(j, &locked)? {
+            let body = if is_moving(j, locked)? {
                 if moving.len() != v.body {
                     let sibling = moving[v.body].name.as_str();
                     return Err(Error::Model(format!(
@@ -237,9 +294,19 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
         ));
     }
 
-    // Joint axes in the base frame and the MDH link frames.
+    Ok(Walk {
+        visits,
+        moving,
+        moving_joint_world,
+    })
+}
+
+/// The MDH link frames of the moving joints (base frame) from their axes at q = 0; refuse a
+/// zero or invalid axis.
+fn mdh_frames(walk: &Walk) -> Result<Vec<Isometry3<f64>>> {
+    let (moving, moving_joint_world) = (&walk.moving, &walk.moving_joint_world);
     let mut axes = Vec::with_capacity(moving.len());
-    for (j, w) in moving.iter().zip(&moving_joint_world) {
+    for (j, w) in moving.iter().zip(moving_joint_world) {
         let a = Vector3::from(j.axis.xyz.0);
         if !a.iter().all(|v| v.is_finite()) || a.norm() < 1e-9 {
             return Err(Error::Model(format!(
@@ -252,16 +319,40 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
             dir: Unit::new_normalize(w.rotation * a),
         });
     }
-    let frames = canonical_frames(&axes);
-    let frame_of = |body: usize| {
-        if body == 0 {
-            Isometry3::identity()
-        } else {
-            frames[body - 1]
-        }
-    };
+    Ok(canonical_frames(&axes))
+}
 
-    // Merge the links of every body, expressed in the body's MDH frame.
+/// The MDH frame of body `body` (0 = base: the base frame).
+fn frame_of(frames: &[Isometry3<f64>], body: usize) -> Isometry3<f64> {
+    if body == 0 {
+        Isometry3::identity()
+    } else {
+        frames[body - 1]
+    }
+}
+
+/// The link that carries the flange frame, chosen as `tool0`, else `flange`, else the last
+/// moving link.
+struct Flange {
+    /// Pose in the last body's MDH frame.
+    pose: Isometry3<f64>,
+    /// Link name.
+    name: String,
+}
+
+/// The merged bodies (0 = base) and the flange.
+struct Merged {
+    bodies: Vec<Link>,
+    flange: Flange,
+}
+
+/// Merge the links of every body, expressed in the body's MDH frame; refuse a moved link
+/// without `<inertial>`.
+fn merge_bodies(tree: &Tree, walk: &Walk, frames: &[Isometry3<f64>]) -> Result<Merged> {
+    let (links, root) = (&tree.links, tree.root);
+    let (visits, moving, moving_joint_world) =
+        (&walk.visits, &walk.moving, &walk.moving_joint_world);
+    let frame_of = |body: usize| frame_of(frames, body);
     let n = moving.len();
     let mut bodies: Vec<Link> = (0..=n)
         .map(|b| {
@@ -284,8 +375,9 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
             }
         })
         .collect();
-    let mut flange: Option<(u8, Isometry3<f64>, &str)> = None;
-    for v in &visits {
+    // The best flange candidate so far: rank (lower is better) and the flange.
+    let mut flange: Option<(u8, Flange)> = None;
+    for v in visits {
         let link = links[v.link];
         let to_frame = frame_of(v.body).inverse() * v.world;
         let inertia = link_inertia(link)?;
@@ -327,13 +419,25 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
                 l if l == moving[n - 1].child.link => 2,
                 _ => 3,
             };
-            if rank < 3 && flange.is_none_or(|(r, _, _)| rank < r) {
-                flange = Some((rank, to_frame, link.name.as_str()));
+            if rank < 3 && flange.as_ref().is_none_or(|(r, _)| rank < *r) {
+                let candidate = Flange {
+                    pose: to_frame,
+                    name: link.name.clone(),
+                };
+                flange = Some((rank, candidate));
             }
         }
     }
-    let (_, flange_pose, flange_name) = flange.expect("the last moving link is always visited");
+    let (_, flange) = flange.expect("the last moving link is always visited");
+    Ok(Merged { bodies, flange })
+}
 
+/// The moving joints with their MDH origins, limits and friction; refuse a revolute joint
+/// without limits and a negative velocity limit.
+fn joints(walk: &Walk, frames: &[Isometry3<f64>]) -> Result<Vec<Joint>> {
+    let moving = &walk.moving;
+    let n = moving.len();
+    let frame_of = |body: usize| frame_of(frames, body);
     let mut joints = Vec::with_capacity(n);
     for (i, j) in moving.iter().enumerate() {
         let continuous = j.joint_type == urdf_rs::JointType::Continuous;
@@ -375,13 +479,5 @@ fn build(urdf: &urdf_rs::Robot, opts: &LoadOptions) -> Result<Robot> {
             },
         });
     }
-    let base = bodies.remove(0);
-    Robot::new(
-        urdf.name.clone(),
-        base,
-        joints,
-        bodies,
-        flange_pose,
-        flange_name,
-    )
+    Ok(joints)
 }

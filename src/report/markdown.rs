@@ -27,6 +27,13 @@ fn durations(d: &[f64]) -> String {
 
 /// The held-out benchmark: the accuracy a user can expect on motions the model never saw.
 fn heldout(w: &mut String, r: &Results) {
+    heldout_intro(w, r);
+    heldout_summary(w, r);
+    heldout_motions(w, r);
+}
+
+/// How the held-out model was identified and what the benchmark predicts.
+fn heldout_intro(w: &mut String, r: &Results) {
     let h = &r.heldout;
     let m = &r.model;
     let _ = writeln!(w, "## Held-out benchmark (out of sample)\n");
@@ -99,6 +106,11 @@ fn heldout(w: &mut String, r: &Results) {
         h.motions.len(),
         h.seed
     );
+}
+
+/// The benchmark's error statistics per prediction, and the power RMSE.
+fn heldout_summary(w: &mut String, r: &Results) {
+    let h = &r.heldout;
     header(
         w,
         &[
@@ -142,6 +154,11 @@ fn heldout(w: &mut String, r: &Results) {
         h.baseline_power_rmse_w.p95,
         h.baseline_power_rmse_w.worst
     );
+}
+
+/// One row per held-out motion.
+fn heldout_motions(w: &mut String, r: &Results) {
+    let h = &r.heldout;
     header(
         w,
         &[
@@ -220,6 +237,21 @@ fn model_parameters(w: &mut String, r: &Results) {
 pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     let mut s = String::new();
     let w = &mut s;
+    intro(w, r);
+    heldout(w, r);
+    model_parameters(w, r);
+    table3(w, r);
+    estimators(w, r);
+    table2(w, r);
+    table4(w, r);
+    figure14(w, r);
+    plots_section(w, plots);
+    timings(w, r);
+    s
+}
+
+/// The title, the run's settings and how the errors are defined.
+fn intro(w: &mut String, r: &Results) {
     let st = &r.settings;
     let _ = writeln!(w, "# powertwin reproduce: Liu et al. 2018 on the twin\n");
     let _ = writeln!(
@@ -248,10 +280,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
          power only (the twin's truth only scores). Errors are \
          `100 (predicted - simulated) / simulated`.\n"
     );
+}
 
-    heldout(w, r);
-    model_parameters(w, r);
-
+/// The in-sample tables' caveat and Table 3: the six identification steps.
+fn table3(w: &mut String, r: &Results) {
     let _ = writeln!(
         w,
         "## In-sample tables (the paper's experiments)\n\nEvery table below predicts the \
@@ -295,7 +327,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 .map_or("".into(), |p| format!("{p}"))
         );
     }
+}
 
+/// Every estimator on the steps' data (in-sample), with its consistency.
+fn estimators(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Estimators on the same data (in-sample)\n");
     let _ = writeln!(
         w,
@@ -329,7 +364,11 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             }
         );
     }
+}
 
+/// Table 2 per estimator: identified vs true base parameters.
+fn table2(w: &mut String, r: &Results) {
+    let st = &r.settings;
     for e in &r.estimators {
         let rows = &e.table2;
         let well: Vec<_> = rows
@@ -381,7 +420,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             );
         }
     }
+}
 
+/// Table 4: tool and loads on step 6's trajectory.
+fn table4(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Table 4: tool and loads on step 6's trajectory\n");
     let _ = writeln!(
         w,
@@ -419,7 +461,10 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
                 .map_or("".into(), |p| format!("{p}"))
         );
     }
+}
 
+/// Figure 14: the pick-and-place sweep, its optima and the Pareto front.
+fn figure14(w: &mut String, r: &Results) {
     let _ = writeln!(w, "\n## Figure 14: pick-and-place speed x load sweep\n");
     let _ = writeln!(
         w,
@@ -502,7 +547,20 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
         "\nEnergy / cycle-time Pareto front per load: {}.",
         front.join(", ")
     );
+}
 
+/// The wall time of every stage.
+fn timings(w: &mut String, r: &Results) {
+    let _ = writeln!(w, "## Timings\n");
+    header(w, &["stage", "wall s"]);
+    for t in &r.timings {
+        let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
+    }
+    let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
+}
+
+/// The charts, with their captions (`plots`: file stem and caption).
+fn plots_section(w: &mut String, plots: &[(String, String)]) {
     if !plots.is_empty() {
         let _ = writeln!(w, "\n## Plots\n");
         for (stem, caption) in plots {
@@ -512,13 +570,6 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
             );
         }
     }
-    let _ = writeln!(w, "## Timings\n");
-    header(w, &["stage", "wall s"]);
-    for t in &r.timings {
-        let _ = writeln!(w, "| {} | {:.2} |", t.stage, t.wall_s);
-    }
-    let _ = writeln!(w, "| total | {:.2} |", r.total_wall_s);
-    s
 }
 
 /// A Markdown table header: the column names and the separator line.

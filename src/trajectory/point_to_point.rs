@@ -71,7 +71,8 @@ impl PointToPoint {
     /// per-joint velocity limits `vmax` (rad/s) and acceleration limits `amax` (rad/s^2),
     /// both positive. Errors ([`Error::InvalidInput`]): fewer than 2 points, points of
     /// different lengths, non-finite values, non-positive limits, `slowdown < 1`, negative
-    /// dwell, or a motion of zero duration (all points equal and no dwell).
+    /// dwell, or a motion of zero duration (all points equal and no dwell);
+    /// [`Error::Numerical`] when the planned duration is not finite.
     pub fn new(
         points: Vec<Vec<f64>>,
         vmax: &[f64],
@@ -153,7 +154,7 @@ impl PointToPoint {
             ));
         }
         if !t.is_finite() {
-            return Err(Error::InvalidInput(format!(
+            return Err(Error::Numerical(format!(
                 "the motion's duration {t} s is not finite"
             )));
         }

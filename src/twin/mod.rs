@@ -163,7 +163,8 @@ impl<'a> Twin<'a> {
     ///
     /// Errors: a trajectory of another joint count, unsorted or non-finite events or brake
     /// windows, brake windows without a brakes-applied mode in the drive file or while the
-    /// reference moves, a non-finite torque or a diverging simulation.
+    /// reference moves ([`Error::InvalidInput`]); a non-finite torque or a diverging
+    /// simulation ([`Error::Numerical`]).
     pub fn run(
         &self,
         traj: &dyn Trajectory,
@@ -251,7 +252,7 @@ impl<'a> Twin<'a> {
             traj.sample(t, &mut qr, &mut dqr, &mut ddqr);
             let clipped = ctrl.torque(&q, &dq, &qr, &dqr, &ddqr, &mut tau);
             if tau.iter().any(|v| !v.is_finite()) {
-                return Err(Error::InvalidInput(format!(
+                return Err(Error::Numerical(format!(
                     "the controller produced a non-finite torque at t = {t:.4} s"
                 )));
             }
@@ -263,7 +264,7 @@ impl<'a> Twin<'a> {
             sim.step(&tau);
             sim.state(&mut q_next, &mut dq_next);
             if q_next.iter().chain(&dq_next).any(|v| !v.is_finite()) {
-                return Err(Error::InvalidInput(format!(
+                return Err(Error::Numerical(format!(
                     "the simulation diverged at t = {t:.4} s"
                 )));
             }

@@ -12,13 +12,11 @@
 //! over it, judged from the speed now and the acceleration of the last step) feels its dry
 //! friction as an exact torque `-fc sign(dq)` held over the step, beside the motor torque. Any
 //! other joint (at rest, creeping, or reversing within the step) keeps Rapier's friction-loss
-//! constraint, which holds it with true stiction. The constraint alone, sliding or not, left
-//! a smooth first-order error in the joint torques: on the swing of `tests/twin.rs` with the
-//! rated 7 kg, joint 1's torque residual against exact inverse dynamics on Rapier's motion was
-//! 0.060 % of its RMS torque at 6 substeps (0.015 % at 24); with the exact sliding torque it
-//! is 0.002 % (0.0005 %). Fewer constraint rows also converge better: a joint held by
-//! stiction while others move now stays put, where the coupled rows (one Gauss-Seidel sweep
-//! per substep) let it creep along at up to about 1e-3 rad/s.
+//! constraint, which holds it with true stiction. The constraint alone, sliding or not, leaves
+//! a smooth first-order error in the joint torques, which the exact sliding torque removes
+//! (see docs/experiments.md#exact-sliding-friction). Fewer constraint rows also converge
+//! better: a joint held by stiction while others move stays put, where the coupled rows (one
+//! Gauss-Seidel sweep per substep) let it creep.
 //!
 //! Joint torques are applied exactly as equal and opposite body torques about the joint axis
 //! on the child and parent links, re-set every step: Rapier maps body wrenches through the

@@ -12,7 +12,9 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
 use crate::identification::excitation::standby_pose;
-use crate::identification::excitation_set::{Member, SetCriterion, SetOptions, design_set};
+use crate::identification::excitation_set::{
+    Member, SetCriterion, SetDesign, SetOptions, design_set,
+};
 use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
 use crate::model::payload::{Payload, PayloadEvent};
@@ -23,9 +25,22 @@ use crate::validation::rig::{Progress, Rig};
 /// Harmonics of each excitation (and of the Fourier route its log is read along).
 const HARMONICS: usize = 5;
 
-/// Workspace of the excitations and the standby pose: margin inside the position limits, rad,
-/// floor height and base-column radius, m.
-const WORKSPACE: (f64, f64, f64) = (0.05, 0.05, 0.15);
+/// Workspace of the excitations and the standby pose.
+struct Workspace {
+    /// Margin inside the position limits, rad.
+    margin_rad: f64,
+    /// Lowest height of the TCP above the base, m.
+    floor_z_m: f64,
+    /// Radius of the base column the TCP keeps out of, m.
+    base_radius_m: f64,
+}
+
+/// The workspace of the identification set.
+const WORKSPACE: Workspace = Workspace {
+    margin_rad: 0.05,
+    floor_z_m: 0.05,
+    base_radius_m: 0.15,
+};
 
 /// Centre of mass of the identification loads in the flange frame, m (a cube bolted to the
 /// flange face).
@@ -45,12 +60,9 @@ pub struct IdSetOptions {
     /// Stretches of 10 s each excitation runs (whole periods of its base frequency).
     pub periods: usize,
     /// Length of an extra run holding the robot (without payload) at its
-    /// [`standby_pose`], s; 0: none. Its log pins the standby power: on the IRB 1200's twin
-    /// (realistic truth, default design, 20 s) the identified standby came out 18.38 W
-    /// instead of 18.07 W for the drives' 18.5 W, but the held-out errors were mixed (worst
-    /// from the log 1.34 to 1.87 %, 1.70 to 2.34 % and 1.29 to 1.76 % on three held-out
-    /// seeds; above standby from the plan 4.1 to 1.7 % on the first), so
-    /// [`IdSetOptions::irb1200`] has none.
+    /// [`standby_pose`], s; 0: none. Its log pins the standby power; [`IdSetOptions::irb1200`]
+    /// has none (it did not improve the held-out benchmark, see
+    /// docs/experiments.md#standby-rest-run).
     pub standby_rest_s: f64,
     /// Criterion of the set design.
     pub criterion: SetCriterion,
@@ -67,26 +79,10 @@ pub struct IdSetOptions {
 impl IdSetOptions {
     /// Eight excitations of the IRB 1200 about centres spread over the workspace, with 0, 2,
     /// 4.5, 7 (the rated payload), 1, 3, 5.5 and 6 kg at the flange; three 10 s stretches each.
-    /// `quick`: the first four with two stretches, smaller designs (one stretch made the quick
-    /// sweep's worst cell 2.6 % instead of 0.7 %).
+    /// `quick`: the first four with two stretches, smaller designs.
     ///
-    /// Why three stretches: against two (default noise, eight noise draws and held-out seed
-    /// pairs, 6 Rapier substeps) the exact truth's held-out worst energy error from the log
-    /// went from 0.14-0.53 % to 0.14-0.33 % and the realistic truth's from 0.99-2.25 % to
-    /// 0.93-1.97 % (above standby 1.9-5.1 % to 2.0-4.5 %); without sensor noise, 30 base
-    /// parameters instead of 29 have a relative std under 1 %, all within 1.42 % of the truth.
-    /// `reproduce` takes about 1.5-2 s more (27.5-29.6 s over six runs, within its 30 s).
-    ///
-    /// Why eight: over five design seeds (101-105) the realistic truth's held-out worst
-    /// energy error from the log was 1.16-1.82 % with eight excitations and 1.13-2.60 % with
-    /// four (two of five above 2 %, one with its intervals covering 30 % of the motions); the
-    /// exact truth's worst was 0.17-1.02 % and 0.28-0.98 %. `reproduce` takes about 4 s more.
-    ///
-    /// Power-level weighting: at 6 Rapier substeps, design seed 104 with ordinary least
-    /// squares put the standby at 19.4 W and missed held-out motions by up to 3.3 % (12.7 %
-    /// above standby, intervals covering 23 %); weighted, 1.2 % and 3.5 %. Over seeds
-    /// 101-105 the worst from the log went 1.48 / 1.51 / 1.70 / 3.28 / 1.01 % to
-    /// 1.34 / 1.51 / 1.98 / 1.21 / 1.00 %; the exact truth's is unchanged (0.15 %).
+    /// Three stretches, eight excitations and the power-level weighting were chosen on the
+    /// held-out benchmark, see docs/experiments.md#identification-set-design.
     pub fn irb1200(quick: bool) -> IdSetOptions {
         let mut o = IdSetOptions {
             centres: vec![
@@ -152,6 +148,52 @@ pub struct IdSet {
 /// Design, run and identify the set on `rig`.
 pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<IdSet> {
     let robot = rig.robot;
+    check_options(opts)?;
+    let payloads = load_payloads(opts)?;
+    progress.stage("identification set: joint design", 1);
+    let design = design(rig, opts, &payloads)?;
+    progress.advance();
+    let (standby, rest) = standby_rest(rig, opts)?;
+    let members = opts.centres.len();
+    let plans: Vec<(Fourier, Option<Payload>)> = design
+        .trajectories
+        .into_iter()
+        .zip(payloads)
+        .chain(rest.map(|t| (t, None)))
+        .collect();
+    let runs = run_twin(rig, opts, plans, members, progress)?;
+    let logs = runs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| r.dataset.log(&format!("identification run {}", k + 1)))
+        .collect::<Result<Vec<_>>>()?;
+    progress.stage("identification: cross-validated fit", 1);
+    let selection = identify_logs(robot, &logs, &routes(opts, runs.len()), &opts.fit)?;
+    progress.advance();
+    let mut set = IdSet {
+        trajectories: Vec::new(),
+        conds: design.member_conds,
+        set_cond: design.cond_final,
+        design_s: design.wall_s,
+        criterion: opts.criterion,
+        rounds: opts.rounds,
+        weighting: opts.fit.weighting,
+        standby,
+        payloads: Vec::new(),
+        datasets: Vec::new(),
+        logs,
+        selection,
+    };
+    for r in runs {
+        set.trajectories.push(r.trajectory);
+        set.payloads.push(r.events);
+        set.datasets.push(r.dataset);
+    }
+    Ok(set)
+}
+
+/// Refuse options of inconsistent lengths and a bad standby rest.
+fn check_options(opts: &IdSetOptions) -> Result<()> {
     if opts.centres.is_empty()
         || opts.centres.len() != opts.loads_kg.len()
         || opts.centres.len() != opts.base_freq_hz.len()
@@ -169,24 +211,32 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             opts.standby_rest_s
         )));
     }
-    let payloads = opts
-        .loads_kg
+    Ok(())
+}
+
+/// The known load of every excitation (None: nothing on the flange).
+fn load_payloads(opts: &IdSetOptions) -> Result<Vec<Option<Payload>>> {
+    opts.loads_kg
         .iter()
         .map(|&load| {
             (load > 0.0)
                 .then(|| Payload::cube(&format!("load {load} kg"), load, LOAD_COM_M.into()))
                 .transpose()
         })
-        .collect::<Result<Vec<_>>>()?;
-    progress.stage("identification set: joint design", 1);
-    let design = design_set(
+        .collect::<Result<Vec<_>>>()
+}
+
+/// The joint design of the excitations.
+fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Result<SetDesign> {
+    let robot = rig.robot;
+    design_set(
         robot,
         &SetOptions {
             members: opts
                 .centres
                 .iter()
                 .zip(&opts.base_freq_hz)
-                .zip(&payloads)
+                .zip(payloads)
                 .map(|((centre, &f), payload)| Member {
                     centre: centre.clone(),
                     base_freq_hz: f,
@@ -200,21 +250,28 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             min_speed: opts.fit.min_speed,
             criterion: opts.criterion,
             accel_limits: opts.accel_limits.clone(),
-            position_margin: WORKSPACE.0,
+            position_margin: WORKSPACE.margin_rad,
             limit_fraction: 0.9,
-            floor_z: WORKSPACE.1,
-            base_radius: WORKSPACE.2,
+            floor_z: WORKSPACE.floor_z_m,
+            base_radius: WORKSPACE.base_radius_m,
             rounds: opts.rounds,
             max_evals: opts.max_evals,
             seed: opts.seed,
         },
-    )?;
-    progress.advance();
-    // The standby rest: a zero-amplitude series, the robot held still at the pose.
+    )
+}
+
+/// The standby pose and the URDF's gravity torques there, as [`standby_pose`] gives them.
+type Standby = (Vec<f64>, Vec<f64>);
+
+/// The standby rest, if asked: the pose (with its gravity torques) and a zero-amplitude
+/// series, the robot held still at the pose.
+fn standby_rest(rig: &Rig, opts: &IdSetOptions) -> Result<(Option<Standby>, Option<Fourier>)> {
+    let robot = rig.robot;
     let standby = (opts.standby_rest_s > 0.0)
         .then(|| {
-            let (margin, floor, radius) = WORKSPACE;
-            standby_pose(robot, margin, floor, radius)
+            let w = &WORKSPACE;
+            standby_pose(robot, w.margin_rad, w.floor_z_m, w.base_radius_m)
         })
         .transpose()?;
     let rest = standby
@@ -230,15 +287,27 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             )
         })
         .transpose()?;
-    let members = opts.centres.len();
-    let plans: Vec<(Fourier, Option<Payload>)> = design
-        .trajectories
-        .into_iter()
-        .zip(payloads)
-        .chain(rest.map(|t| (t, None)))
-        .collect();
+    Ok((standby, rest))
+}
+
+/// One twin run of the set: the trajectory, the payload timeline and the logged dataset.
+struct TwinRun {
+    trajectory: Fourier,
+    events: Vec<PayloadEvent>,
+    dataset: Dataset,
+}
+
+/// Run every plan on the twin in parallel; the first `members` are the excitations, any
+/// further one the standby rest.
+fn run_twin(
+    rig: &Rig,
+    opts: &IdSetOptions,
+    plans: Vec<(Fourier, Option<Payload>)>,
+    members: usize,
+    progress: &dyn Progress,
+) -> Result<Vec<TwinRun>> {
     progress.stage("identification set: twin runs", plans.len());
-    let runs: Vec<(Fourier, Vec<PayloadEvent>, Dataset)> = plans
+    plans
         .into_par_iter()
         .enumerate()
         .map(|(k, (traj, payload))| {
@@ -264,18 +333,19 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             });
             let ds = rig.run(&traj, &events, 100 + k as u64, description)?;
             progress.advance();
-            Ok((traj, events, ds))
+            Ok(TwinRun {
+                trajectory: traj,
+                events,
+                dataset: ds,
+            })
         })
-        .collect::<Result<_>>()?;
-    let logs = runs
-        .iter()
-        .enumerate()
-        .map(|(k, r)| r.2.log(&format!("identification run {}", k + 1)))
-        .collect::<Result<Vec<_>>>()?;
-    progress.stage("identification: cross-validated fit", 1);
-    // The excitations along their Fourier series; the rest along the spline route, which
-    // holds it exactly still.
-    let routes: Vec<Route> = (0..runs.len())
+        .collect()
+}
+
+/// The route each of the `runs` logs is read along: the excitations along their Fourier
+/// series; the rest along the spline route, which holds it exactly still.
+fn routes(opts: &IdSetOptions, runs: usize) -> Vec<Route> {
+    (0..runs)
         .map(|k| match opts.base_freq_hz.get(k) {
             Some(&f) => Route::Fourier {
                 base_freq_hz: f,
@@ -283,27 +353,5 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
             },
             None => Route::Spline,
         })
-        .collect();
-    let selection = identify_logs(robot, &logs, &routes, &opts.fit)?;
-    progress.advance();
-    let mut set = IdSet {
-        trajectories: Vec::new(),
-        conds: design.member_conds,
-        set_cond: design.cond_final,
-        design_s: design.wall_s,
-        criterion: opts.criterion,
-        rounds: opts.rounds,
-        weighting: opts.fit.weighting,
-        standby,
-        payloads: Vec::new(),
-        datasets: Vec::new(),
-        logs,
-        selection,
-    };
-    for (traj, events, ds) in runs {
-        set.trajectories.push(traj);
-        set.payloads.push(events);
-        set.datasets.push(ds);
-    }
-    Ok(set)
+        .collect()
 }

@@ -85,12 +85,21 @@ pub struct Candidate<'a> {
     pub schedule: &'a Schedule,
 }
 
+/// An optimised plan on the twin and its saving against the uniform plan.
+#[derive(Debug, Clone)]
+pub struct CheckedPlan {
+    /// The plan's twin run and prediction.
+    pub check: PlanCheck,
+    /// Its saving against the uniform plan.
+    pub saving: Saving,
+}
+
 /// What the twin says of the plans.
 pub struct Checked {
     /// The user's uniform plan.
     pub uniform: PlanCheck,
     /// The optimised plans, in the order given, with their savings against `uniform`.
-    pub plans: Vec<(PlanCheck, Saving)>,
+    pub plans: Vec<CheckedPlan>,
     /// The twin runs: the uniform plan first, then the optimised ones.
     pub datasets: Vec<Dataset>,
     /// The planned runs, in the same order.
@@ -187,11 +196,11 @@ pub fn check(
     let mut it = checks.into_iter();
     let uniform = it
         .next()
-        .ok_or_else(|| Error::InvalidInput("no plan checked".into()))?;
+        .ok_or_else(|| Error::Numerical("no plan checked".into()))?;
     let plans = it
         .map(|c| {
-            let s = Saving::of(&c, &uniform);
-            (c, s)
+            let saving = Saving::of(&c, &uniform);
+            CheckedPlan { check: c, saving }
         })
         .collect();
     let (runs, brakes): (Vec<TaskRun>, Vec<Vec<BrakeWindow>>) =

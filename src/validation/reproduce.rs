@@ -43,9 +43,8 @@ pub struct Plan {
 
 impl Plan {
     /// The paper's experiments on the IRB 1200 with the built-in scenario. Rest pose of the
-    /// steps (0, 0.2, 0.2, 0, 0.8, 0) rad; two 10 s periods per step (with the default noise
-    /// one period leaves the all-at-once estimates noticeably noisier: worst sweep cell 0.93 %
-    /// instead of 0.27 %); designs with 2 CMA-ES starts of 1000 evaluations. `quick`: one
+    /// steps (0, 0.2, 0.2, 0, 0.8, 0) rad; two 10 s periods per step (one leaves the
+    /// all-at-once estimates noticeably noisier, see docs/experiments.md#steps-periods); designs with 2 CMA-ES starts of 1000 evaluations. `quick`: one
     /// period, one start of 300 evaluations and a 3 x 2 sweep (0.1, 0.5, 1 m/s; 0 and 4 kg).
     pub fn irb1200(quick: bool) -> Result<Plan> {
         let tool = builtin::payload("tool")?;

@@ -16,12 +16,11 @@ use crate::trajectory::task::{Scenario, TaskRun};
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
 
-/// Largest tracking error, rad, at which a twin run still counts as the planned task. The
-/// structure-matched twin tracks the built-in sweep within 1.05e-3 rad; the realistic twin
-/// (controller model 10 % wrong, Stribeck stick-slip at 0.1 m/s) within 0.034 rad (measured
-/// on the quick sweep). 0.05 rad (about 3.5 cm at the IRB 1200's 0.7 m reach) is beyond
-/// both, so only a run the drives cannot follow (saturated torques, a payload far above the
-/// rating) exceeds it. A real controller tracks far better: the realistic twin's PD
+/// Largest tracking error, rad, at which a twin run still counts as the planned task: beyond
+/// what both the structure-matched and the realistic twin track on the built-in sweep (see
+/// docs/experiments.md#tracking-error-bound), so only a run the drives cannot follow
+/// (saturated torques, a payload far above the rating) exceeds it. 0.05 rad is about 3.5 cm
+/// at the IRB 1200's 0.7 m reach. A real controller tracks far better: the realistic twin's PD
 /// controller without integral action is an honest worst case, not a model of ABB's.
 pub const TRACKING_ERROR_BOUND_RAD: f64 = 0.05;
 
