@@ -100,8 +100,9 @@ impl RouteArgs {
 /// Known payloads of the logs (override what a dataset records).
 #[derive(Debug, Args)]
 pub struct PayloadArgs {
-    /// Payload at the flange throughout: a built-in name (tool, load_1kg, load_2kg,
-    /// load_4kg) or a payload TOML file; repeat to combine (--payload tool --payload load_2kg).
+    /// Payload at the flange throughout: a built-in name (liu2018_tool, liu2018_load_1kg,
+    /// liu2018_load_2kg, liu2018_load_4kg: the IRB 1200's of Liu et al. 2018) or a payload TOML
+    /// file; repeat to combine (--payload liu2018_tool --payload liu2018_load_2kg).
     #[arg(long, value_name = "NAME|PATH")]
     payload: Vec<String>,
     /// Payload timeline TOML (`[[event]] t_s = .., payload = "tool+load_2kg"` or "none"),
@@ -111,6 +112,16 @@ pub struct PayloadArgs {
 }
 
 impl PayloadArgs {
+    /// Warn on stderr for each built-in payload of `--payload` used on a robot that is not
+    /// the IRB 1200 (a payload file gives no warning).
+    fn warn_foreign(&self, robot: &Robot) {
+        for name in self.payload.iter().flat_map(|p| p.split('+')) {
+            if !Path::new(name).exists() {
+                crate::cli::warn_foreign_payload(name.trim(), robot);
+            }
+        }
+    }
+
     /// The timeline the arguments give, or `None` to keep the log's own.
     fn events(&self) -> Result<Option<Vec<PayloadEvent>>> {
         if let Some(path) = &self.payload_events {
@@ -214,6 +225,7 @@ pub(super) fn gather(
     robot: &Robot,
     payloads: &PayloadArgs,
 ) -> Result<Vec<Log>> {
+    payloads.warn_foreign(robot);
     if data.is_empty() {
         let mut logs = load_logs(log_args)?;
         let events = payloads.events()?;

@@ -19,7 +19,7 @@ use powertwin::validation::optimized::{self, Candidate, Checked, PlanCheck, Savi
 use serde::Serialize;
 
 use crate::cli::progress::Bars;
-use crate::cli::{OverloadArgs, Setup, TwinArgs, emit, read_model, write_all};
+use crate::cli::{Exit, OverloadArgs, Setup, TwinArgs, emit, read_model, write_all};
 
 /// Arguments of `optimize`.
 ///
@@ -186,7 +186,7 @@ pub fn run(args: &OptimizeArgs) -> Result<ExitCode> {
             optimise_s,
         )
     })?;
-    refuse_flagged(&checked, args)
+    exit_for_flagged(&checked, args)
 }
 
 /// The placement search area of `--search-offset` (X,Y,Z in m, YAW in degrees), if given.
@@ -380,19 +380,21 @@ fn log_viz(
     Ok(())
 }
 
-/// Refuse (unless `--allow-overload`) plans the twin did not perform as planned.
-fn refuse_flagged(checked: &Checked, args: &OptimizeArgs) -> Result<ExitCode> {
+/// Exit 3 (unless `--allow-overload`), after every output is written, when the twin did not
+/// perform a plan as planned; the plans are listed on stderr.
+fn exit_for_flagged(checked: &Checked, args: &OptimizeArgs) -> Result<ExitCode> {
     let flagged: Vec<&str> = std::iter::once(&checked.uniform)
         .chain(checked.plans.iter().map(|p| &p.check))
         .filter(|c| c.flagged)
         .map(|c| c.name.as_str())
         .collect();
     if !flagged.is_empty() && !args.overload.allowed() {
-        bail!(
-            "the twin did not perform these plans as planned (torque saturated or tracking \
-             beyond 0.05 rad): {}; pass --allow-overload to accept them",
+        eprintln!(
+            "flagged: the twin did not perform these plans as planned (torque saturated or \
+             tracking beyond 0.05 rad): {}; pass --allow-overload to accept them",
             flagged.join(", ")
         );
+        return Ok(Exit::Flagged.into());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -62,42 +62,16 @@ const PAYLOADS: [BuiltinPayload; 4] = [
     },
 ];
 
-/// The names of the built-in payloads (see [`PAYLOAD_NAMES`]).
-///
-/// Listing it ([`PayloadNames::as_slice`], [`PayloadNames::join`]) gives the current names;
-/// [`PayloadNames::contains`] also accepts the old names (`tool`, `load_1kg`, `load_2kg`,
-/// `load_4kg`), which stay valid as aliases so that existing scenario and timeline files load.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PayloadNames([&'static str; 4]);
-
-impl PayloadNames {
-    /// The current names, in order.
-    pub const fn as_slice(&self) -> &[&'static str] {
-        &self.0
-    }
-
-    /// The current names joined by `sep` (for messages).
-    pub fn join(&self, sep: &str) -> String {
-        self.0.join(sep)
-    }
-
-    /// Whether `name` names a built-in payload: a current name or an old alias. Takes
-    /// `&&str` like a slice of names does (`PAYLOAD_NAMES.contains(&name)`).
-    pub fn contains(&self, name: &&str) -> bool {
-        find(name).is_some()
-    }
-}
-
 /// Names of the built-in payloads of Liu et al. 2018 (Table 4), made for the IRB 1200: the
 /// 1.32 kg tool and the 1, 2 and 4 kg steel loads (whose COM is at the tool's TCP; combine
 /// them with the tool, see [`Payload::combined`]). The old names (`tool`, `load_1kg`, ...) are
-/// accepted too.
-pub const PAYLOAD_NAMES: PayloadNames = PayloadNames([
+/// accepted too: test a name with [`is_payload_name`].
+pub const PAYLOAD_NAMES: [&str; 4] = [
     PAYLOADS[0].name,
     PAYLOADS[1].name,
     PAYLOADS[2].name,
     PAYLOADS[3].name,
-]);
+];
 
 /// The built-in payload of a current name or an old alias.
 fn find(name: &str) -> Option<&'static BuiltinPayload> {

@@ -187,7 +187,7 @@ pub fn resolve(spec: &str, dir: &Path) -> Result<Payload> {
                 "payload '{spec}': empty name between '+'"
             )));
         }
-        let one = if crate::model::builtin::PAYLOAD_NAMES.contains(&part) {
+        let one = if crate::model::builtin::is_payload_name(part) {
             crate::model::builtin::payload(part)?
         } else {
             let path = dir.join(part);

@@ -399,7 +399,7 @@ fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
                 file.tool
             )));
         }
-        let tool = if builtin::PAYLOAD_NAMES.contains(&file.tool.as_str()) {
+        let tool = if builtin::is_payload_name(&file.tool) {
             builtin::payload(&file.tool)?
         } else {
             Payload::from_file(&dir.join(&file.tool))?
