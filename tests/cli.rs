@@ -63,7 +63,7 @@ fn dynamics_writes_gravity_torques_and_names_bad_rows() {
         .split(',')
         .map(|s| s.parse().unwrap())
         .collect();
-    // Gravity load at q = 0 (irb1200.md section 2: 13.4 and 13.3 N m on axes 2 and 3).
+    // Gravity load at q = 0 (docs/design/irb1200-data.md section 2: 13.4 and 13.3 N m on axes 2 and 3).
     assert!(
         (tau[1].abs() - 13.4).abs() < 0.05 && (tau[2].abs() - 13.3).abs() < 0.05,
         "{tau:?}"

@@ -88,7 +88,7 @@ fn irb1200_urdf_matches_ros_kinematics_and_datasheet_limits() {
     ] {
         assert!(links.contains(&l), "{l}");
     }
-    // (xyz, axis, lower deg, upper deg, speed deg/s), irb1200.md 1.1 and 2.
+    // (xyz, axis, lower deg, upper deg, speed deg/s), docs/design/irb1200-data.md 1.1 and 2.
     let expected = [
         (
             [0.0, 0.0, 0.3991],
@@ -164,7 +164,7 @@ fn irb1200_urdf_mass_properties_and_geometry() {
             assert!(colour.is_some(), "{}: visual without colour", l.name);
         }
     }
-    // irb1200.md 3.2: total 52.13 kg.
+    // docs/design/irb1200-data.md 3.2: total 52.13 kg.
     assert!((total - 52.129).abs() < 1e-9, "{total}");
     let l2 = urdf.links.iter().find(|l| l.name == "link_2").unwrap();
     assert_eq!(*l2.inertial.origin.xyz, [0.0004, 0.0007, 0.1842]);
@@ -395,7 +395,7 @@ fn tool_payload_has_the_proposed_parameters() {
     assert_eq!(tool.inertia.mass, 1.32);
     assert_eq!(tool.inertia.com, Vector3::new(0.0, 0.0, 0.060));
     assert_eq!(tool.tcp, Some(Vector3::new(0.0, 0.0, 0.120)));
-    // Solid cylinder r = 0.04 m, h = 0.12 m (irb1200.md 5.4).
+    // Solid cylinder r = 0.04 m, h = 0.12 m (docs/design/irb1200-data.md 5.4).
     let (m, r, h): (f64, f64, f64) = (1.32, 0.04, 0.12);
     let i = tool.inertia.inertia_com;
     assert!((i[(0, 0)] - m * (3.0 * r * r + h * h) / 12.0).abs() < 1e-12);

@@ -20,7 +20,7 @@ use super::TwinArgs;
 /// `excite`), no payload / the tool / the tool plus a 0.5-4 kg steel cube (at most what the
 /// drive file's rated payload leaves beside the tool), drive friction, rotor inertia and
 /// losses scaled by 0.7-1.3 from the drive file and efficiency 0.83-0.92 (see
-/// docs/bulk-datasets.md).
+/// docs/guide/bulk-datasets.md).
 #[derive(Debug, Args)]
 pub struct DatasetArgs {
     #[command(flatten)]

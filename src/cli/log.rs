@@ -15,7 +15,7 @@ use powertwin::measurement::segments::{MoveOptions, SegmentSpec, select};
 pub struct LogArgs {
     /// Measured log files, CSV or Parquet: time, joint positions, optional joint velocities,
     /// power. Without --columns, powertwin's own names: t_s, q1_rad.., dq1_rad_s..,
-    /// P_total_W or p_elec1_W.. (see docs/log-columns.md).
+    /// P_total_W or p_elec1_W.. (see docs/guide/log-columns.md).
     #[arg(long, value_name = "FILE", num_args = 1..)]
     pub log: Vec<PathBuf>,
     /// Column map: a TOML file naming the columns and units, or the preset `ur-rtde`

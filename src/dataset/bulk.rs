@@ -1,6 +1,6 @@
 //! Bulk ground truth: a global set of randomised twin runs, defined item by item by
 //! `(seed, index)` alone, so any process can produce any item and shards of the set never
-//! overlap (see `docs/bulk-datasets.md`).
+//! overlap (see `docs/guide/bulk-datasets.md`).
 //!
 //! Item `j` draws, from an RNG seeded with `splitmix64(seed ^ splitmix64(j))`:
 //! - the trajectory: with probability 1/2 a rest-to-rest Fourier excitation (0.1 Hz, 5

@@ -10,7 +10,7 @@
 //! ([`clean`]), estimates the lag of the power behind the joints ([`lag`]) and reports all
 //! it did in a [`read::ReadReport`]; [`segments`] cuts logs into time ranges or
 //! rest-to-rest moves. The column map format is documented in [`columns`] and
-//! `docs/log-columns.md`.
+//! `docs/guide/log-columns.md`.
 
 pub mod clean;
 pub mod columns;

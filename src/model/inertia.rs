@@ -5,7 +5,7 @@
 //! frame). Products of inertia are tensor elements: `I[0][1] = -∫ x y dm` (the URDF and
 //! Khalil convention), so a diagonal body has zero products.
 //!
-//! The standard parameter vector of a link follows Liu et al. 2018 (method.md):
+//! The standard parameter vector of a link follows Liu et al. 2018 (docs/design/method.md):
 //! `[XX YY ZZ XY XZ YZ MX MY MZ M]`: inertia tensor about the *frame origin* (kg m^2),
 //! first moments `m * c` (kg m) and mass (kg).
 

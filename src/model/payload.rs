@@ -132,7 +132,7 @@ impl Payload {
     /// A solid steel cube ([`STEEL_DENSITY_KG_M3`]) of `mass_kg` with its centre of mass at
     /// `com_m` (flange frame, m), edges along the flange axes, without a TCP: side
     /// `a = (m / rho)^(1/3)`, `Ixx = Iyy = Izz = m a^2 / 6` about the COM. The loads of
-    /// `shared/reference/irb1200.md`, section 5.4. Errors ([`Error::InvalidInput`]): a mass
+    /// `docs/design/irb1200-data.md`, section 5.4. Errors ([`Error::InvalidInput`]): a mass
     /// that is not finite and positive, a non-finite COM.
     pub fn cube(name: &str, mass_kg: f64, com_m: Vector3<f64>) -> Result<Payload> {
         if !(mass_kg.is_finite() && mass_kg > 0.0) {

@@ -6,7 +6,7 @@ use std::fmt::Write;
 use crate::report::results::Results;
 
 /// Energy errors of the paper's Table 3 (steps 1..6), %: the reference the twin is compared
-/// with (Liu et al. 2018; `shared/reference/irb1200.md` 5.1).
+/// with (Liu et al. 2018; `docs/design/irb1200-data.md` 5.1).
 const PAPER_TABLE3_PCT: [f64; 6] = [10.4, 5.4, 2.5, 1.5, 1.4, 1.8];
 /// Energy errors of the paper's Table 4 (no tool, tool, tool + 1, 2, 4 kg), %.
 const PAPER_TABLE4_PCT: [f64; 5] = [0.25, 0.91, 1.35, 1.1, 0.24];

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use super::Trajectory;
 
 /// Acceleration bounds for excitation design on the IRB 1200, rad/s^2 per joint. ABB
-/// publishes none; these are estimates (`shared/reference/irb1200.md`, section 2).
+/// publishes none; these are estimates (`docs/design/irb1200-data.md`, section 2).
 pub const IRB1200_ACCEL_LIMITS: [f64; 6] = [15.0, 15.0, 20.0, 30.0, 30.0, 40.0];
 
 /// Time, s, in which a joint of a robot without published acceleration bounds is assumed to

@@ -21,7 +21,7 @@
 //! Joint torques are applied exactly as equal and opposite body torques about the joint axis
 //! on the child and parent links, re-set every step: Rapier maps body wrenches through the
 //! body Jacobians, so the pair acts on that joint's degree of freedom only
-//! (`shared/reference/rapier.md`, section 2).
+//! (`docs/design/rapier-multibody.md`, section 2).
 //!
 //! Units: SI (m, rad, kg, kg m^2, N m, s); gravity -9.81 m/s^2 along the base z.
 
