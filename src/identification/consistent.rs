@@ -38,6 +38,7 @@ use serde::Serialize;
 use crate::dynamics::ParamLayout;
 use crate::dynamics::base_params::BaseParams;
 use crate::error::{Error, Result};
+use crate::identification::fit::Param;
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
@@ -632,23 +633,23 @@ pub fn constrain(
     let mut out = model.clone();
     out.theta.copy_from_slice(&consistent.theta);
     let nb = model.theta.len();
-    for (name, v) in estimate.names[nb..].iter().zip(&consistent.extras) {
-        if name == "P0_W" {
-            out.constant.fill(0.0);
-            out.constant[0] = *v;
-        } else if let Some(i) = copper_index(name, out.copper.len()) {
-            out.copper[i - 1] = *v;
+    for (param, v) in extra_params(estimate, nb).zip(&consistent.extras) {
+        match param {
+            Param::Standby => {
+                out.constant.fill(0.0);
+                out.constant[0] = *v;
+            }
+            Param::Copper(i) if i < out.copper.len() => out.copper[i] = *v,
+            _ => {}
         }
     }
     Ok((out, consistent))
 }
 
-/// The 1-based joint of a copper-loss name `c<i>_W_per_Nm2` (`i` in `1..=n`).
-fn copper_index(name: &str, n: usize) -> Option<usize> {
-    name.strip_prefix('c')
-        .and_then(|r| r.strip_suffix("_W_per_Nm2"))
-        .and_then(|i| i.parse::<usize>().ok())
-        .filter(|i| (1..=n).contains(i))
+/// What each of the estimate's values after its `nb` base parameters is in the power model
+/// ([`Estimate::params`]; nothing for an estimate that does not say).
+fn extra_params(estimate: &Estimate, nb: usize) -> impl Iterator<Item = Param> + '_ {
+    estimate.params.iter().skip(nb).copied()
 }
 
 /// The identified robot as a twin: a physically consistent robot and drive that reproduce an
@@ -690,11 +691,11 @@ impl IdentifiedTwin {
         // Copper and standby from the consistent extras where the estimate has them.
         let mut copper = model.copper.clone();
         let mut standby: f64 = model.constant.iter().sum();
-        for (name, v) in estimate.names[nb..].iter().zip(&consistent.extras) {
-            if name == "P0_W" {
-                standby = *v;
-            } else if let Some(i) = copper_index(name, copper.len()) {
-                copper[i - 1] = *v;
+        for (param, v) in extra_params(estimate, nb).zip(&consistent.extras) {
+            match param {
+                Param::Standby => standby = *v,
+                Param::Copper(i) if i < copper.len() => copper[i] = *v,
+                _ => {}
             }
         }
         let layout = model.layout;
