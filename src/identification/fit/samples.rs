@@ -217,9 +217,7 @@ impl Samples {
             for motor in kinds {
                 let series = s.series.last().map_or(0, |v| v + 1);
                 // A motor's samples are fitted where the arm's are: near another joint's
-                // reversal the motion leaves the route too (fitting a motor wherever its own
-                // joint moves fast enough was measured no better: exact truth's held-out
-                // worst 0.137 % for 0.110 %).
+                // reversal the motion leaves the route too (docs/experiments.md#motor-power).
                 for (m, &fit_m) in fit.iter().enumerate() {
                     s.state.push(first_state + m);
                     s.motor.push(motor);
