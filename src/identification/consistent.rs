@@ -44,6 +44,7 @@ use crate::identification::model::PowerModel;
 use crate::model::Robot;
 use crate::model::drive::{Drive, JointDrive};
 use crate::model::export::{drive_string, urdf_string, with_standard_params};
+use crate::numerics::lm;
 
 /// Settings of [`project`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -420,14 +421,7 @@ pub fn project(
     let sq = opts.lambda.sqrt();
     let w = DVector::from_iterator(q, s.iter().map(|v| sq / v));
     let prior_v = DVector::from_column_slice(&prior_aug);
-    // Residual and its Jacobian in phi.
-    let residual = |phi: &DVector<f64>| -> DVector<f64> {
-        let mut r = DVector::zeros(nt + q);
-        r.rows_mut(0, nt).copy_from(&(&rk * phi - &rtheta));
-        r.rows_mut(nt, q)
-            .copy_from(&(phi - &prior_v).component_mul(&w));
-        r
-    };
+    // The residual's Jacobian in phi.
     let mut j_phi = DMatrix::zeros(nt + q, q);
     j_phi.rows_mut(0, nt).copy_from(&rk);
     for c in 0..q {
@@ -467,78 +461,47 @@ pub fn project(
     }
 
     // Levenberg–Marquardt in z.
-    let eval = |z: &[f64]| -> (DVector<f64>, DMatrix<f64>) {
-        let (mut phi, mut d) = phi_of(&layout, &z[..p], &offset[..p]);
-        phi.extend(z[p..].iter().map(|v| v * v));
-        d = d.resize(q, q, 0.0);
-        for c in p..q {
-            d[(c, c)] = 2.0 * z[c];
-        }
-        (DVector::from_vec(phi), d)
+    let mut problem = Projection {
+        layout: &layout,
+        offset: &offset,
+        j_phi: &j_phi,
+        rk: &rk,
+        rtheta: &rtheta,
+        prior: &prior_v,
+        w: &w,
+        unit: &unit,
+        z: Vec::new(),
+        phi: DVector::zeros(0),
+        dphi: DMatrix::zeros(0, 0),
+        r: DVector::zeros(0),
+        cost: 0.0,
+        jac: DMatrix::zeros(0, 0),
     };
-    let (mut phi, mut dphi) = eval(&z);
-    let mut r = residual(&phi);
-    let mut cost = r.norm_squared();
-    let mut mu: f64 = 1e-3;
-    let mut iterations = 0;
-    let mut history = std::collections::VecDeque::from([cost]);
-    for _ in 0..opts.max_iterations {
-        iterations += 1;
-        let jac = &j_phi * &dphi;
-        let mut improved = false;
-        for _ in 0..30 {
-            let mut a = DMatrix::zeros(nt + 2 * q, q);
-            a.rows_mut(0, nt + q).copy_from(&jac);
-            for (c, u) in unit.iter().enumerate() {
-                a[(nt + q + c, c)] = mu.sqrt() * u;
-            }
-            let mut b = DVector::zeros(nt + 2 * q);
-            b.rows_mut(0, nt + q).copy_from(&(-&r));
-            let Ok(mut step) = a.svd(true, true).solve(&b, 0.0) else {
-                mu *= 10.0;
-                continue;
-            };
-            // At most one natural unit per coordinate and step: a factor e on the
-            // log-Cholesky diagonal, L on its other entries.
-            let longest = step
-                .iter()
-                .zip(&unit)
-                .fold(0.0_f64, |m, (d, u)| m.max((d * u).abs()));
-            if longest > MAX_STEP {
-                step *= MAX_STEP / longest;
-            }
-            let trial: Vec<f64> = z.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            let (phi_t, dphi_t) = eval(&trial);
-            if phi_t.iter().any(|v| !v.is_finite()) {
-                mu *= 10.0;
-                continue;
-            }
-            let r_t = residual(&phi_t);
-            let c = r_t.norm_squared();
-            if c < cost {
-                let rel = (cost - c) / cost.max(1e-300);
-                z = trial;
-                phi = phi_t;
-                dphi = dphi_t;
-                r = r_t;
-                cost = c;
-                mu = (mu / 10.0).max(1e-15);
-                improved = rel > 1e-15;
-                break;
-            }
-            mu *= 10.0;
-        }
-        history.push_back(cost);
-        if history.len() > STALL_WINDOW {
-            let before = history.pop_front().unwrap_or(cost);
-            if before - cost <= opts.stall * before {
-                break;
-            }
-        }
-        if !improved {
-            break;
-        }
-    }
+    let (phi, dphi) = problem.eval(&z);
+    problem.r = problem.residual(&phi);
+    problem.cost = problem.r.norm_squared();
+    (problem.z, problem.phi, problem.dphi) = (z, phi, dphi);
+    let report = lm::minimise(
+        &mut problem,
+        &lm::Options {
+            max_iterations: opts.max_iterations,
+            max_tries: 30,
+            initial_damping: 1e-3,
+            min_damping: 1e-15,
+            max_damping: f64::INFINITY,
+            shrink: lm::Shrink::Divide(10.0),
+            fall: Some(lm::Fall {
+                scale: 1.0,
+                threshold: 1e-15,
+            }),
+            stall: Some(lm::Stall {
+                window: STALL_WINDOW,
+                fraction: opts.stall,
+            }),
+            stop_when_stuck: true,
+        },
+    );
+    let (phi, iterations) = (problem.phi, report.iterations);
 
     let fitted = &k_aug * &phi;
     let dtheta = &fitted - DVector::from_column_slice(theta_hat);
@@ -578,6 +541,120 @@ pub fn project(
         from_prior,
         iterations,
     })
+}
+
+/// The projection as a problem of [`lm::minimise`]: the residual
+/// `[R (K_aug phi(z) - theta_hat); W (phi(z) - phi_prior)]` in the parametrisation `z`, its
+/// step damped in the natural units of `z` and capped at [`MAX_STEP`] of them.
+struct Projection<'a> {
+    layout: &'a ParamLayout,
+    /// The margins' standard vector (`q` long).
+    offset: &'a [f64],
+    /// Jacobian of the residual in `phi`.
+    j_phi: &'a DMatrix<f64>,
+    /// `R K_aug`.
+    rk: &'a DMatrix<f64>,
+    /// `R theta_hat`.
+    rtheta: &'a DVector<f64>,
+    /// The prior (augmented with the extras).
+    prior: &'a DVector<f64>,
+    /// Weights of the prior term.
+    w: &'a DVector<f64>,
+    /// Natural units of `z` (inverse scales) for the damping and the step cap.
+    unit: &'a [f64],
+    /// The current point.
+    z: Vec<f64>,
+    /// `phi(z)`.
+    phi: DVector<f64>,
+    /// `d phi / d z`.
+    dphi: DMatrix<f64>,
+    /// Residual at `phi`.
+    r: DVector<f64>,
+    /// `|r|^2`.
+    cost: f64,
+    /// Jacobian of the residual in `z` (this iteration's).
+    jac: DMatrix<f64>,
+}
+
+/// A trial point of [`Projection`] with its evaluation.
+struct ProjectionTrial {
+    z: Vec<f64>,
+    phi: DVector<f64>,
+    dphi: DMatrix<f64>,
+    r: DVector<f64>,
+}
+
+impl Projection<'_> {
+    /// Number of unknowns `q` (standard parameters and extras).
+    fn unknowns(&self) -> usize {
+        self.unit.len()
+    }
+
+    /// `phi(z)` (standard parameters, margins included, then the extras `z^2`) and
+    /// `d phi / d z`.
+    fn eval(&self, z: &[f64]) -> (DVector<f64>, DMatrix<f64>) {
+        let (p, q) = (self.layout.len(), self.unknowns());
+        let (mut phi, mut d) = phi_of(self.layout, &z[..p], &self.offset[..p]);
+        phi.extend(z[p..].iter().map(|v| v * v));
+        d = d.resize(q, q, 0.0);
+        for c in p..q {
+            d[(c, c)] = 2.0 * z[c];
+        }
+        (DVector::from_vec(phi), d)
+    }
+
+    /// The residual at `phi`.
+    fn residual(&self, phi: &DVector<f64>) -> DVector<f64> {
+        let (nt, q) = (self.rk.nrows(), self.unknowns());
+        let mut r = DVector::zeros(nt + q);
+        r.rows_mut(0, nt).copy_from(&(self.rk * phi - self.rtheta));
+        r.rows_mut(nt, q)
+            .copy_from(&(phi - self.prior).component_mul(self.w));
+        r
+    }
+}
+
+impl lm::Problem for Projection<'_> {
+    type Trial = ProjectionTrial;
+
+    fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    fn linearise(&mut self) {
+        self.jac = self.j_phi * &self.dphi;
+    }
+
+    fn trial(&mut self, mu: f64) -> Option<(ProjectionTrial, f64)> {
+        let (nt, q) = (self.rk.nrows(), self.unknowns());
+        let mut a = DMatrix::zeros(nt + 2 * q, q);
+        a.rows_mut(0, nt + q).copy_from(&self.jac);
+        for (c, u) in self.unit.iter().enumerate() {
+            a[(nt + q + c, c)] = mu.sqrt() * u;
+        }
+        let mut b = DVector::zeros(nt + 2 * q);
+        b.rows_mut(0, nt + q).copy_from(&(-&self.r));
+        let mut step = a.svd(true, true).solve(&b, 0.0).ok()?;
+        // At most one natural unit per coordinate and step: a factor e on the log-Cholesky
+        // diagonal, L on its other entries.
+        lm::cap_step(&mut step, self.unit, MAX_STEP);
+        let z: Vec<f64> = self.z.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+        let (phi, dphi) = self.eval(&z);
+        if phi.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let r = self.residual(&phi);
+        let c = r.norm_squared();
+        Some((ProjectionTrial { z, phi, dphi, r }, c))
+    }
+
+    fn accept(&mut self, trial: ProjectionTrial, cost: f64) {
+        self.z = trial.z;
+        self.phi = trial.phi;
+        self.dphi = trial.dphi;
+        self.r = trial.r;
+        self.cost = cost;
+    }
 }
 
 /// [`project`] the estimate behind `model` (SI, not efficiency-scaled): its base parameters

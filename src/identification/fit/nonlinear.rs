@@ -10,9 +10,13 @@ use crate::error::Result;
 use crate::identification::lsq::{Estimate, solve};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning::CONVERGED_CHI2;
+use crate::numerics::lm;
 
 /// Iteration limit of Levenberg–Marquardt.
 const MAX_ITERATIONS: usize = 100;
+
+/// Damping increases tried per iteration of Levenberg–Marquardt.
+const MAX_TRIES: usize = 20;
 
 /// Fewest samples a thread evaluates at a time in Levenberg–Marquardt.
 const PARALLEL_SAMPLES: usize = 512;
@@ -56,6 +60,9 @@ fn weighted_residuals(
 
 /// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
 /// linear solution), in place; only the parameters marked in `free` move (all when `None`).
+/// The shared loop ([`crate::numerics::lm`]) with Marquardt's damping (the diagonal of
+/// `J^T J` scaled), copper coefficients kept >= 0 by an active set and projection, and a
+/// stop when a step lowers the cost by less than [`CONVERGED_CHI2`] residual variances.
 pub(super) fn levenberg_marquardt(
     s: &Samples,
     rows: &[usize],
@@ -65,71 +72,113 @@ pub(super) fn levenberg_marquardt(
 ) -> Result<()> {
     let np = s.params();
     let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let eval = |z: &DVector<f64>, jac_t: Option<&mut DMatrix<f64>>| {
-        weighted_residuals(s, rows, &sw, z, jac_t)
-    };
     let mut jac_t = DMatrix::zeros(np, rows.len());
-    let mut r = eval(z, Some(&mut jac_t));
-    let mut cost = r.norm_squared();
-    let mut lambda = 1e-3;
-    for _ in 0..MAX_ITERATIONS {
-        let mut jtj = gram(&jac_t);
-        let mut g = &jac_t * &r;
+    let r = weighted_residuals(s, rows, &sw, z, Some(&mut jac_t));
+    let cost = r.norm_squared();
+    let mut problem = PowerFit {
+        s,
+        rows,
+        sw,
+        free,
+        z,
+        jac_t,
+        r,
+        cost,
+        jtj: DMatrix::zeros(np, np),
+        g: DVector::zeros(np),
+    };
+    lm::minimise(
+        &mut problem,
+        &lm::Options {
+            max_iterations: MAX_ITERATIONS,
+            max_tries: MAX_TRIES,
+            initial_damping: 1e-3,
+            min_damping: 1e-12,
+            max_damping: f64::INFINITY,
+            shrink: lm::Shrink::Divide(10.0),
+            // The fall in units of the residual variance (chi-square): below CONVERGED_CHI2
+            // the parameters are within 0.01 standard deviations of the least cost.
+            fall: Some(lm::Fall {
+                scale: (rows.len().saturating_sub(np)).max(1) as f64,
+                threshold: CONVERGED_CHI2,
+            }),
+            stall: None,
+            stop_when_stuck: true,
+        },
+    );
+    Ok(())
+}
+
+/// The power fit as a problem of [`lm::minimise`]: the weighted residuals of the samples
+/// `rows` at `z`, their transposed Jacobian, and this iteration's normal equations.
+struct PowerFit<'a> {
+    s: &'a Samples,
+    rows: &'a [usize],
+    /// Square roots of the weights, one per row.
+    sw: Vec<f64>,
+    /// The parameters that may move (all when `None`).
+    free: Option<&'a [bool]>,
+    /// The current parameters.
+    z: &'a mut DVector<f64>,
+    /// Transposed weighted Jacobian at `z`, a column per row.
+    jac_t: DMatrix<f64>,
+    /// Weighted residuals at `z`.
+    r: DVector<f64>,
+    /// `|r|^2` (of the trial that became `z`).
+    cost: f64,
+    /// `J^T J` with the held parameters decoupled.
+    jtj: DMatrix<f64>,
+    /// `J^T r` with the held parameters' entries zero.
+    g: DVector<f64>,
+}
+
+impl lm::Problem for PowerFit<'_> {
+    type Trial = DVector<f64>;
+
+    fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    fn linearise(&mut self) {
+        let (s, np) = (self.s, self.s.params());
+        self.jtj = gram(&self.jac_t);
+        self.g = &self.jac_t * &self.r;
         // Held this iteration: the fixed parameters, and the copper coefficients on their
         // bound (0) that the gradient pushes below it (the active set). Projecting a full
         // Gauss-Newton step instead spoils it for every parameter correlated with the bound
         // one, and the iteration crawls.
         let held: Vec<bool> = (0..np)
             .map(|k| {
-                let fixed = free.is_some_and(|f| !f[k]);
+                let fixed = self.free.is_some_and(|f| !f[k]);
                 let copper = (s.nb..s.nb + s.n).contains(&k);
-                fixed || (copper && z[k] <= 0.0 && g[k] > 0.0)
+                fixed || (copper && self.z[k] <= 0.0 && self.g[k] > 0.0)
             })
             .collect();
-        for k in (0..np).filter(|&k| held[k]) {
-            // No coupling, no gradient, so the step is zero.
-            jtj.row_mut(k).fill(0.0);
-            jtj.column_mut(k).fill(0.0);
-            jtj[(k, k)] = 1.0;
-            g[k] = 0.0;
-        }
-        let mut improved = false;
-        for _ in 0..20 {
-            let mut a = jtj.clone();
-            for k in 0..np {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            }
-            let Some(chol) = a.cholesky() else {
-                lambda *= 10.0;
-                continue;
-            };
-            let step = chol.solve(&(-&g));
-            let mut trial = &*z + &step;
-            // Copper-loss coefficients are resistances: kept >= 0 (projected).
-            for i in 0..s.n {
-                trial[s.nb + i] = trial[s.nb + i].max(0.0);
-            }
-            let c = eval(&trial, None).norm_squared();
-            if c < cost {
-                // The fall in units of the residual variance (chi-square): below
-                // CONVERGED_CHI2 the parameters are within 0.01 standard deviations of the
-                // least cost.
-                let chi2 =
-                    (cost - c) * (rows.len().saturating_sub(np)).max(1) as f64 / cost.max(1e-300);
-                *z = trial;
-                r = eval(z, Some(&mut jac_t));
-                cost = c;
-                lambda = (lambda / 10.0).max(1e-12);
-                improved = chi2 > CONVERGED_CHI2;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
+        lm::hold(&mut self.jtj, &mut self.g, &held);
     }
-    Ok(())
+
+    fn trial(&mut self, damping: f64) -> Option<(DVector<f64>, f64)> {
+        let s = self.s;
+        let mut a = self.jtj.clone();
+        for k in 0..s.params() {
+            a[(k, k)] += damping * self.jtj[(k, k)].max(1e-12);
+        }
+        let chol = a.cholesky()?;
+        let step = chol.solve(&(-&self.g));
+        let mut trial = &*self.z + &step;
+        // Copper-loss coefficients are resistances: kept >= 0 (projected).
+        for i in 0..s.n {
+            trial[s.nb + i] = trial[s.nb + i].max(0.0);
+        }
+        let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared();
+        Some((trial, c))
+    }
+
+    fn accept(&mut self, trial: DVector<f64>, cost: f64) {
+        *self.z = trial;
+        self.r = weighted_residuals(self.s, self.rows, &self.sw, self.z, Some(&mut self.jac_t));
+        self.cost = cost;
+    }
 }
 
 /// Statistics of the fit at `z` on the samples `rows` with `weights`: its estimate and the
