@@ -164,34 +164,9 @@ impl Samples {
                     p.states.len()
                 )));
             }
-            // Base-parameter change of each known payload (model units, not scaled).
-            let spans: Vec<PayloadSpan> = p
-                .payloads
-                .iter()
-                .map(|e| {
-                    let d = match (&e.payload, &base) {
-                        (Some(pl), Some(b)) => Some(model.payload_delta(b, robot, pl)?),
-                        _ => None,
-                    };
-                    Ok(PayloadSpan {
-                        from_s: e.t_s,
-                        delta: d,
-                    })
-                })
-                .collect::<Result<_>>()?;
+            let spans = payload_spans(robot, model, base.as_ref(), p)?;
+            let fit = fitted(p, min_speed);
             let len = p.states.len();
-            let moving = p.states.moving(&p.excited, min_speed);
-            let mut fit = vec![false; len];
-            for m in moving {
-                fit[m] = true;
-            }
-            // A robot held exactly still (the spline route's rests) has no Coulomb sign to
-            // doubt: its power is the standby plus the copper loss of holding the pose, which
-            // pins the constant.
-            for (m, f) in fit.iter_mut().enumerate() {
-                *f |= p.states.dq.iter().all(|v| v[m] == 0.0)
-                    && p.states.ddq.iter().all(|a| a[m] == 0.0);
-            }
             let first_state = s.dq.len() / n;
             for m in 0..len {
                 p.states.at(m, &mut q, &mut dq, &mut ddq);
@@ -212,26 +187,7 @@ impl Samples {
                 }
                 s.dq.extend_from_slice(&dq);
             }
-            // The arm's power, then each motor's: every series contiguous and in time order.
-            let kinds = std::iter::once(None).chain((0..n).map(Some).filter(|_| motor_power));
-            for motor in kinds {
-                let series = s.series.last().map_or(0, |v| v + 1);
-                // A motor's samples are fitted where the arm's are: near another joint's
-                // reversal the motion leaves the route too (docs/experiments.md#motor-power).
-                for (m, &fit_m) in fit.iter().enumerate() {
-                    s.state.push(first_state + m);
-                    s.motor.push(motor);
-                    s.series.push(series);
-                    s.y.push(match motor {
-                        None => p.p_total[m],
-                        Some(i) => p.p_joint[m * n + i],
-                    });
-                    s.fit.push(fit_m);
-                    let block = (m * folds.max(1)) / len;
-                    s.piece.push(PieceId { log: l, block });
-                    s.fold.push(if logs.len() >= 3 { l } else { block });
-                }
-            }
+            s.push_observations(l, p, &fit, first_state, folds, logs.len() >= 3);
         }
         Ok(s)
     }
@@ -329,4 +285,81 @@ impl Samples {
             None => layout.standby(),
         }
     }
+}
+
+impl Samples {
+    /// Append the observations of log `l` (`p`, whose states start at `first_state`): the
+    /// arm's power, then each motor's when the samples observe them, every series contiguous
+    /// and in time order, with their fit flags `fit` (one per state), pieces (`folds` blocks
+    /// of the log) and folds (the log itself when `by_log`, else its block).
+    fn push_observations(
+        &mut self,
+        l: usize,
+        p: &Prepared,
+        fit: &[bool],
+        first_state: usize,
+        folds: usize,
+        by_log: bool,
+    ) {
+        let (n, len) = (self.n, fit.len());
+        let kinds = std::iter::once(None).chain((0..n).map(Some).filter(|_| self.motors));
+        for motor in kinds {
+            let series = self.series.last().map_or(0, |v| v + 1);
+            // A motor's samples are fitted where the arm's are: near another joint's
+            // reversal the motion leaves the route too (docs/experiments.md#motor-power).
+            for (m, &fit_m) in fit.iter().enumerate() {
+                self.state.push(first_state + m);
+                self.motor.push(motor);
+                self.series.push(series);
+                self.y.push(match motor {
+                    None => p.p_total[m],
+                    Some(i) => p.p_joint[m * n + i],
+                });
+                self.fit.push(fit_m);
+                let block = (m * folds.max(1)) / len;
+                self.piece.push(PieceId { log: l, block });
+                self.fold.push(if by_log { l } else { block });
+            }
+        }
+    }
+}
+
+/// The known payloads of log `p` from when each is at the flange, with its base-parameter
+/// change (model units, not scaled; `base` is the model's base-parameter set, needed only
+/// when a payload is present).
+fn payload_spans(
+    robot: &Robot,
+    model: &PowerModel,
+    base: Option<&crate::dynamics::base_params::BaseParams>,
+    p: &Prepared,
+) -> Result<Vec<PayloadSpan>> {
+    p.payloads
+        .iter()
+        .map(|e| {
+            let d = match (&e.payload, base) {
+                (Some(pl), Some(b)) => Some(model.payload_delta(b, robot, pl)?),
+                _ => None,
+            };
+            Ok(PayloadSpan {
+                from_s: e.t_s,
+                delta: d,
+            })
+        })
+        .collect()
+}
+
+/// Whether each state of log `p` is fitted on: every excited joint moves at least
+/// `min_speed` (rad/s), or the robot is held exactly still.
+fn fitted(p: &Prepared, min_speed: f64) -> Vec<bool> {
+    let len = p.states.len();
+    let mut fit = vec![false; len];
+    for m in p.states.moving(&p.excited, min_speed) {
+        fit[m] = true;
+    }
+    // A robot held exactly still (the spline route's rests) has no Coulomb sign to doubt: its
+    // power is the standby plus the copper loss of holding the pose, which pins the constant.
+    for (m, f) in fit.iter_mut().enumerate() {
+        *f |= p.states.dq.iter().all(|v| v[m] == 0.0) && p.states.ddq.iter().all(|a| a[m] == 0.0);
+    }
+    fit
 }
