@@ -257,28 +257,7 @@ pub fn project(
         .svd(true, true)
         .solve(&rhs, 1e-15)
         .map_err(|e| Error::Numerical(format!("consistent projection: {e}")))?;
-    let mut z = vec![0.0; q];
-    for c in p..q {
-        z[c] = free[c].max(1e-3 * s[c]).sqrt();
-    }
-    for (j, e) in margins.iter().enumerate() {
-        let start = layout.link_start(j);
-        let link = |v: &[f64]| log_cholesky(&(pseudo_inertia(&v[start..start + INERTIAL]) - e));
-        let zl = link(free.as_slice())
-            .or_else(|| link(prior))
-            .unwrap_or_else(|| {
-                // A unit-mass ball of 0.1 m gyration radius at the origin.
-                let mut d = [0.0; INERTIAL];
-                for v in &mut d[1..4] {
-                    *v = (0.1f64 / 3f64.sqrt()).ln();
-                }
-                d
-            });
-        z[start..start + INERTIAL].copy_from_slice(&zl);
-        for c in start + INERTIAL..start + layout.per_link() {
-            z[c] = free[c].max(1e-3 * s[c]).sqrt();
-        }
-    }
+    let z = start_point(&layout, free.as_slice(), prior, &margins, &s);
 
     // Levenberg–Marquardt in z.
     let mut problem = Projection {
@@ -330,25 +309,8 @@ pub fn project(
         .map(|i| dtheta[i].abs() / covariance[(i, i)].sqrt())
         .collect();
     let max_change_sigma = change_sigma.iter().cloned().fold(0.0, f64::max);
-    // Null space of K in scaled coordinates: 1 - |V_r^T e_k|^2 is the squared null part of
-    // the unit vector e_k.
-    let ks = DMatrix::from_fn(nb, p, |i, c| k[(i, c)] * s[c]);
-    let svd = ks.svd(false, true);
-    let v_t = svd
-        .v_t
-        .ok_or_else(|| Error::Numerical("consistent projection: SVD without V".into()))?;
-    let smax = svd.singular_values.max();
     let names = layout.names();
-    let from_prior = (0..p)
-        .filter(|&c| {
-            let row: f64 = (0..v_t.nrows())
-                .filter(|&i| svd.singular_values[i] > 1e-10 * smax)
-                .map(|i| v_t[(i, c)].powi(2))
-                .sum();
-            (1.0 - row).max(0.0).sqrt() > NULL_TOL
-        })
-        .map(|c| names[c].clone())
-        .collect();
+    let from_prior = set_by_prior(&k, &s, &names)?;
     Ok(Consistent {
         names,
         phi: phi.as_slice()[..p].to_vec(),
@@ -361,6 +323,67 @@ pub fn project(
         from_prior,
         iterations,
     })
+}
+
+/// The start of the projection's Levenberg–Marquardt: the unconstrained minimiser `free`
+/// (`q` values: standard parameters, then extras) made consistent link by link (a link that
+/// is not consistent there starts from `prior`, or from a small ball), its drive terms and
+/// extras as square roots of at least `1e-3` of their natural scales `s`.
+fn start_point(
+    layout: &crate::dynamics::ParamLayout,
+    free: &[f64],
+    prior: &[f64],
+    margins: &[Matrix4<f64>],
+    s: &[f64],
+) -> Vec<f64> {
+    let (p, q) = (layout.len(), s.len());
+    let mut z = vec![0.0; q];
+    for c in p..q {
+        z[c] = free[c].max(1e-3 * s[c]).sqrt();
+    }
+    for (j, e) in margins.iter().enumerate() {
+        let start = layout.link_start(j);
+        let link = |v: &[f64]| log_cholesky(&(pseudo_inertia(&v[start..start + INERTIAL]) - e));
+        let zl = link(free).or_else(|| link(prior)).unwrap_or_else(|| {
+            // A unit-mass ball of 0.1 m gyration radius at the origin.
+            let mut d = [0.0; INERTIAL];
+            for v in &mut d[1..4] {
+                *v = (0.1f64 / 3f64.sqrt()).ln();
+            }
+            d
+        });
+        z[start..start + INERTIAL].copy_from_slice(&zl);
+        for c in start + INERTIAL..start + layout.per_link() {
+            z[c] = free[c].max(1e-3 * s[c]).sqrt();
+        }
+    }
+
+    z
+}
+
+/// Names of the standard parameters (of `names`, layout order) that are not a function of the
+/// base parameters `K` (a component in the null space of `K`, in the coordinates scaled by
+/// `s`, beyond [`NULL_TOL`]): their split is set by the prior.
+fn set_by_prior(k: &DMatrix<f64>, s: &[f64], names: &[String]) -> Result<Vec<String>> {
+    let (nb, p) = k.shape();
+    // Null space of K in scaled coordinates: 1 - |V_r^T e_k|^2 is the squared null part of
+    // the unit vector e_k.
+    let ks = DMatrix::from_fn(nb, p, |i, c| k[(i, c)] * s[c]);
+    let svd = ks.svd(false, true);
+    let v_t = svd
+        .v_t
+        .ok_or_else(|| Error::Numerical("consistent projection: SVD without V".into()))?;
+    let smax = svd.singular_values.max();
+    Ok((0..p)
+        .filter(|&c| {
+            let row: f64 = (0..v_t.nrows())
+                .filter(|&i| svd.singular_values[i] > 1e-10 * smax)
+                .map(|i| v_t[(i, c)].powi(2))
+                .sum();
+            (1.0 - row).max(0.0).sqrt() > NULL_TOL
+        })
+        .map(|c| names[c].clone())
+        .collect())
 }
 
 /// [`project`] the estimate behind `model` (SI, not efficiency-scaled): its base parameters
