@@ -27,14 +27,14 @@ pub struct IdentifiedTwin {
 
 impl IdentifiedTwin {
     /// Project the estimate behind `model` (SI, not efficiency-scaled) onto consistent
-    /// parameters (see [`project`]): its base parameters (which must come first and carry the
+    /// parameters (see [`project`](super::project)): its base parameters (which must come first and carry the
     /// model's names) and its other values, the copper-loss coefficients `c<i>_W_per_Nm2` and
     /// the constant power `P0_W` of a PMSM fit, kept non-negative, with the estimate's full
     /// covariance. `prior` is a standard vector of the model's layout (e.g. the input URDF with
     /// [`crate::dynamics::DriveTerms::from_urdf`]).
     ///
     /// Errors: an efficiency-scaled model (power cannot separate the parameters from 1/eta),
-    /// an estimate that does not cover the model's base parameters, or what [`project`]
+    /// an estimate that does not cover the model's base parameters, or what [`project`](super::project)
     /// refuses.
     pub fn new(
         robot: &Robot,
