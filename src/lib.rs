@@ -60,6 +60,7 @@ pub mod io;
 pub mod kinematics;
 pub mod measurement;
 pub mod model;
+pub mod numerics;
 pub mod optimize;
 pub mod report;
 pub mod trajectory;

@@ -130,9 +130,8 @@ pub fn ensure_motion(prepared: &[Prepared]) -> Result<()> {
 /// times, or, when the logger averages power over each sample period, the middle of each
 /// period `[t_k-1, t_k]`, where a smooth power takes its period's mean to second order (the
 /// first sample, whose period precedes the log, keeps its own time). Taking the sample times
-/// for an averaging logger lags the power by half a period: identified from an averaging
-/// 10 Hz DC-bus log of point-to-point moves, standby 42.7 W for 37 W and held-out moves up to
-/// 18 % off; with the middles 37.1 W and 1.0 %.
+/// for an averaging logger lags the power by half a period
+/// (docs/experiments.md#averaged-power-times).
 pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
     (0..t.len())
         .map(|k| match k {

@@ -105,7 +105,7 @@ impl ExcitationOptions {
         ExcitationOptions {
             joints,
             base_freq_hz: 0.1,
-            harmonics: 5,
+            harmonics: crate::identification::tuning::HARMONICS,
             periods: 1,
             rest_pose,
             layout: ParamLayout::new(robot, true, true),

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::identification::fit::Param;
 
 /// Largest accepted condition number of the column-scaled regressor.
 pub const MAX_COND: f64 = 1e10;
@@ -33,6 +34,10 @@ pub struct Estimate {
     /// Covariance `s^2 (A^T A)^-1` of the values, in their units squared (not serialised).
     #[serde(skip)]
     pub covariance: DMatrix<f64>,
+    /// What each value is in the power model's parameter vector, in column order, when the
+    /// estimate comes from [`crate::identification::fit`] (empty otherwise; not serialised).
+    #[serde(skip)]
+    pub params: Vec<Param>,
 }
 
 /// Solve `a x = y` in the least-squares sense. `names` label the columns.
@@ -98,7 +103,7 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
             &DMatrix::from_column_slice(qty.len(), 1, qty.as_slice()),
             0.0,
         )
-        .map_err(|e| Error::InvalidInput(format!("least squares failed: {e}")))?;
+        .map_err(|e| Error::Numerical(format!("least squares failed: {e}")))?;
     let values: Vec<f64> = (0..p).map(|c| x_scaled[(c, 0)] / norms[c]).collect();
     let resid = a * DVector::from_column_slice(&values) - y;
     let s2 = resid.norm_squared() / (m - p) as f64;
@@ -106,7 +111,7 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
     let v_t = svd
         .v_t
         .as_ref()
-        .ok_or_else(|| Error::InvalidInput("SVD without V".into()))?;
+        .ok_or_else(|| Error::Numerical("SVD without V".into()))?;
     let std: Vec<f64> = (0..p)
         .map(|c| {
             let var: f64 = (0..p)
@@ -129,6 +134,7 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
         residual_rms: (resid.norm_squared() / m as f64).sqrt(),
         rows: m,
         covariance,
+        params: Vec::new(),
     })
 }
 

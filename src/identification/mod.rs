@@ -20,3 +20,4 @@ pub mod pmsm;
 pub mod spline;
 pub mod states;
 pub mod steps;
+pub mod tuning;

@@ -18,6 +18,11 @@ use crate::error::{Error, Result, ensure_finite};
 use crate::identification::spline::{End, quintic, smooth};
 use crate::trajectory::Trajectory;
 
+pub use crate::identification::tuning::{
+    AGREED_NOISE_RATIO, EDGE_Z, EDGE_Z_AGREED, MOVE_Z, SLOPE_HALF_WINDOW_S, START_FROM_REST_RATIO,
+    WHITE_RATIO,
+};
+
 /// Joint speed (rad/s) below which the robot counts as standing still: ten times the
 /// velocity noise that 1e-5 rad of encoder noise gives at 10 Hz.
 pub const REST_SPEED: f64 = 1e-3;
@@ -389,18 +394,6 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
 pub const ASSUMED_ENCODER_NOISE: f64 =
     REST_SPEED * REST_WINDOW_S / (7.0 * std::f64::consts::SQRT_2);
 
-/// Half-width (s) of the window in which the move weights fit each joint's local slope: at
-/// 10 Hz the sample and one on each side. (0.2 s left the weights at 1 at the edges of a
-/// 0.5 s stand-still, whose windows reach into the motion next to it.)
-pub const SLOPE_HALF_WINDOW_S: f64 = 0.1;
-
-/// The local slope's size in standard deviations below which the move weights take a joint
-/// as not seen to move (weight 0: encoder noise alone stays below 2 in 95 % of windows), and
-/// above which as moving (weight 1); linear between. Chosen on the held-out benchmark: the
-/// weight `erf(z / sqrt 2)` (the chance that the slope's sign is right) left the realistic
-/// worst power RMSE at 3.02 W, as a joint standing still gets 0.5 on average.
-pub const MOVE_Z: (f64, f64) = (2.0, 4.0);
-
 /// How clearly each joint is seen to move at each sample, in `[0, 1]` (`[i][k]`): from
 /// `z = |b| / sd(b)` by [`MOVE_Z`], with `b` the slope (rad/s) of the straight line through
 /// the joint's logged positions `q` within [`SLOPE_HALF_WINDOW_S`] of the sample (at least
@@ -446,7 +439,7 @@ fn move_weights(t: &[f64], q: &[Vec<f64>], dq: &[Vec<f64>], sigma: &[f64]) -> Ve
                         b if sd == 0.0 => b * f64::INFINITY,
                         b => b / sd,
                     };
-                    ((z - MOVE_Z.0) / (MOVE_Z.1 - MOVE_Z.0)).clamp(0.0, 1.0)
+                    ((z - MOVE_Z.still) / (MOVE_Z.moving - MOVE_Z.still)).clamp(0.0, 1.0)
                 })
                 .collect()
         })
@@ -480,18 +473,6 @@ fn previous_rest(stretches: &[(bool, usize, usize)], first: usize) -> usize {
         .map_or(0, |r| r.2)
 }
 
-/// Noise-normalised shift (standard deviations) at which a rest's edge sample counts as
-/// already moved off the rest, toward the motion next to it ([`from_spline`]). Seven
-/// standard deviations of one joint pass for rest ([`REST_WINDOW_S`]); the shift here is
-/// weighed over all joints along the motion's direction, so a start 10-30 ms before a sample
-/// at 10 Hz shows (on the held-out benchmark's worst, 24 ms: 8.9 deviations), where the rest
-/// held the sample still and so missed every joint's Coulomb torque (up to 6 W). 6 rather
-/// than 5: on the held-out benchmark (seeds 90210 and 4242, both truths, four noise draws) 5
-/// moved one edge sample that had not moved (exact truth, seed 4242: worst energy error
-/// 0.228 % against 0.140 %) and changed nothing else; 4 moved more (exact truth, seed 90210:
-/// worst above standby 0.54 % against 0.19 %).
-pub const EDGE_Z: f64 = 6.0;
-
 /// Least encoder noise (rad) assumed when weighing an edge's shift: a noise-free log (the
 /// twin without sensor noise) holds its rests to rounding.
 const EDGE_SIGMA_FLOOR: f64 = 1e-9;
@@ -499,8 +480,8 @@ const EDGE_SIGMA_FLOOR: f64 = 1e-9;
 /// Encoder noise of each joint (rad) judged from the rests' sample-to-sample steps, robustly:
 /// `1.4826 median |x_k+1 - x_k| / sqrt(2)` over the intervals at rest. Unlike the pooled
 /// scatter of [`noise_levels`], it ignores the few steps at a rest's edges where the robot
-/// still (or already) moves; on the held-out benchmark's short rests the pooled scatter was
-/// up to 3 times the noise. Zero without rests.
+/// still (or already) moves, which inflate the pooled scatter of short rests
+/// (docs/experiments.md#encoder-noise-levels). Zero without rests.
 fn rest_jitter(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
     q.iter()
         .map(|x| {
@@ -557,12 +538,6 @@ fn edge_moved(
     z >= EDGE_Z || (before && z >= EDGE_Z_AGREED)
 }
 
-/// Noise-normalised shift (standard deviations) at which a rest's edge sample counts as moved
-/// when the `(t - t0)^3` law through the motion's next two samples also places the start
-/// (stop) beyond it: a stop 21 ms after a sample, 1.5 deviations off the two-sample rest
-/// after it, on the held-out benchmark.
-pub const EDGE_Z_AGREED: f64 = 1.0;
-
 /// The instant (s) inside the sample interval between a rest's last sample `inner` and the
 /// motion's first `f` (going back in time for a motion that reaches the rest) at which the
 /// motion leaves (reaches) the rest, `fraction` of the way from `inner` to `f`
@@ -582,9 +557,9 @@ fn edge_instant(t: &[f64], inner: usize, f: usize, fraction: f64, moved: bool) -
 /// beyond `inner`, inside the rest. A jerk-limited start leaves a rest as `(t - t0)^3`, as
 /// the least-jerk spline does, so with the motion a fraction `r` as far from the rest at `f`
 /// as at the next sample `g` (least squares over the joints, weighed by their noise
-/// `sigma`), `(t_f - t0) / (t_g - t0) = r^(1/3)`. On the held-out benchmark's 10 Hz logs this
-/// placed 87 of the 110 starts and stops within 8 ms of the plan's (a constant-acceleration
-/// start would put them later; this puts such a start earlier, toward the rest sample).
+/// `sigma`), `(t_f - t0) / (t_g - t0) = r^(1/3)` (a constant-acceleration start would put
+/// the instant later; this puts such a start earlier, toward the rest sample;
+/// docs/experiments.md#rest-edges).
 fn edge_fraction(
     t: &[f64],
     q: &[Vec<f64>],
@@ -655,30 +630,19 @@ fn with_knots(s: &States, extra: &[&Edge]) -> States {
 /// the earlier); one that leaves (reaches) the end at speed `v` covers at least half of
 /// `|v| h` in the direction of `v` unless it reverses within the interval. When `dx` falls
 /// short of that, the joint starts (stops) at rest there or is held by stiction, and the
-/// free end's quartic extrapolates a speed the samples do not show: on the held-out
-/// benchmark up to 0.3 rad/s at starts from rest (power RMSE worst 3.07 W; with this test
-/// 2.52 W).
+/// free end's quartic extrapolates a speed the samples do not show
+/// (docs/experiments.md#starts-from-rest).
 pub fn unsupported_end_speed(v: f64, dx: f64, h: f64) -> bool {
     dx * v.signum() < 0.5 * v.abs() * h
 }
-
-/// Least ratio of the robot's mean speed over a log's second sample interval to that over its
-/// first (displacements summed over the joints) at which a log that begins in motion counts
-/// as beginning as the robot starts from rest ([`starts_from_rest`]). A start from rest at
-/// the first sample gives 3 at constant acceleration and 7 at constant jerk (more if the
-/// start falls inside the first interval); a robot passing at constant speed gives 1. A
-/// robot already moving at `v0` and speeding up by `a` reaches 2.5 only if `v0 <= a h / 6`,
-/// so starting it at rest misplaces little.
-pub const START_FROM_REST_RATIO: f64 = 2.5;
 
 /// Whether a log's first samples, positions `q[i][m]` (rad) at times `t[m]` (s, increasing),
 /// show the robot starting from rest at the first one: over the second interval the joints
 /// move at least [`START_FROM_REST_RATIO`] times as fast as over the first. The motion then
 /// starts at rest there instead of already moving, as the free end's quartic through the
-/// first samples would have it (by up to 0.12 rad/s on the held-out benchmark's motions,
-/// and so with every joint's Coulomb torque switched on at a sample where the robot still
-/// stands: up to 6 W too much power there). False with fewer than 3 samples (of `t` or of
-/// any joint).
+/// first samples would have it (with every joint's Coulomb torque switched on at a sample
+/// where the robot still stands; docs/experiments.md#starts-from-rest). False with fewer
+/// than 3 samples (of `t` or of any joint).
 pub fn starts_from_rest(t: &[f64], q: &[Vec<f64>]) -> bool {
     if t.len() < 3 || q.iter().any(|qi| qi.len() < 3) {
         return false;
@@ -697,11 +661,6 @@ pub const MIN_REST_DOF: usize = 2;
 /// little rest. White noise gives the same estimate at every order; a motion the sampling
 /// resolves gives estimates that fall with the order.
 pub const DIFFERENCE_ORDERS: [usize; 3] = [4, 6, 8];
-
-/// Largest ratio of the fourth- to the eighth-order estimate for which a joint's samples count
-/// as noise-dominated (white noise: 1; 10 Hz logs of the held-out motions: 2.5 to 100, the
-/// stick-slip of the realistic twin's wrist included; their 100 Hz logs: about 1).
-pub const WHITE_RATIO: f64 = 1.5;
 
 /// Robust standard deviation of white noise from the `p`-th differences of `x`:
 /// `1.4826 median|Δ^p x| / sqrt(C(2p, p))`; `None` for too few samples.
@@ -742,15 +701,11 @@ fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 /// alone, joint by joint: where a joint's samples look like white noise, that estimate;
 /// where they do not, zero (the sampling resolves the motion above the noise, and the spline
 /// interpolates). Each joint keeps its own: a 10 Hz log whose wrist sticks and slips looks
-/// white on that joint only (5e-4 rad on a held-out motion), and handing that level to every
-/// joint smoothed the others' ends away (power RMSE 3.85 W on that benchmark, 2.45 W joint by
-/// joint).
+/// white on that joint only, and handing that level to every joint smooths the others' ends
+/// away (docs/experiments.md#encoder-noise-levels).
 ///
 /// The smoothing spline brings its residual to this level ([`super::spline::smooth`]), so an
-/// estimate a little low leaves the accelerations rough: a 1 kHz UR5 log whose only rest was
-/// its last 22 samples gave 8.2e-6 rad on joint 1 (1.0e-5 from its 5400 samples'
-/// differences), 1.7 rad/s^2 RMS acceleration error and 4.3 W power RMSE, where 250 Hz gave
-/// 1.0 W.
+/// estimate a little low leaves the accelerations rough.
 pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
     let rests = rest_spans(rest);
     let in_rests: usize = rests.iter().map(|(a, b)| b - a + 1).sum();
@@ -782,12 +737,6 @@ pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
         })
         .collect()
 }
-
-/// Largest ratio of a joint's white-noise estimate from its differences to its scatter at
-/// rest for which [`noise_levels`] pools the two: the same encoder noise within the rests'
-/// sampling error (a few rest samples leave the scatter uncertain by tens of percent); a
-/// joint that sticks and slips while the others move looks white at 10 Hz with far more.
-pub const AGREED_NOISE_RATIO: f64 = 2.0;
 
 /// A joint's encoder noise (rad) from the differences of its samples `x`, with the degrees of
 /// freedom it stands for, where they look like white noise (the fourth order's estimate within

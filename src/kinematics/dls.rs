@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 use crate::kinematics::fk::tcp_pose;
 use crate::kinematics::jacobian::geometric_into;
 use crate::model::Robot;
+use crate::numerics::lm;
 
 /// Smallest damping used (Gauss–Newton steps in practice).
 const MIN_DAMPING: f64 = 1e-12;
@@ -99,44 +100,41 @@ pub fn solve_held(
         .iter()
         .map(|j| (j.limits.lower, j.limits.upper))
         .collect();
-    let mut q: Vec<f64> = seed
+    let q: Vec<f64> = seed
         .iter()
         .zip(&limits)
         .map(|(&s, &(lo, hi))| s.clamp(lo, hi))
         .collect();
-    let mut trial = q.clone();
     let mut jac = Matrix6xX::zeros(n);
-    let mut err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
+    let err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
     hold_columns(&mut jac, held);
-    let mut lambda = opts.initial_damping;
-    let mut steps = 0;
-    while !converged(&err, opts) && steps < opts.max_iterations && lambda <= MAX_DAMPING {
-        steps += 1;
-        let jt = jac.transpose();
-        let mut a = &jt * &jac;
-        for i in 0..n {
-            a[(i, i)] += lambda;
-        }
-        let Some(chol) = a.cholesky() else {
-            lambda *= 10.0;
-            continue;
-        };
-        let dq = chol.solve(&(&jt * err));
-        for ((t, (&qi, &d)), &(lo, hi)) in
-            trial.iter_mut().zip(q.iter().zip(dq.iter())).zip(&limits)
-        {
-            *t = (qi + d).clamp(lo, hi);
-        }
-        let trial_err = pose_error(target_tcp, &tcp_pose(robot, &trial, tcp));
-        if trial_err.norm_squared() < err.norm_squared() {
-            std::mem::swap(&mut q, &mut trial);
-            err = pose_error(target_tcp, &geometric_into(robot, &q, tcp, &mut jac));
-            hold_columns(&mut jac, held);
-            lambda = (lambda * 0.1).max(MIN_DAMPING);
-        } else {
-            lambda *= 10.0;
-        }
-    }
+    let mut problem = Ik {
+        robot,
+        target_tcp,
+        tcp,
+        held,
+        limits: &limits,
+        opts,
+        trial: q.clone(),
+        q,
+        jac,
+        err,
+    };
+    let report = lm::minimise(
+        &mut problem,
+        &lm::Options {
+            max_iterations: opts.max_iterations,
+            max_tries: 1,
+            initial_damping: opts.initial_damping,
+            min_damping: MIN_DAMPING,
+            max_damping: MAX_DAMPING,
+            shrink: lm::Shrink::Multiply(0.1),
+            fall: None,
+            stall: None,
+            stop_when_stuck: false,
+        },
+    );
+    let (q, err, steps) = (problem.q, problem.err, report.iterations);
     if converged(&err, opts) {
         return Ok(q);
     }
@@ -149,6 +147,71 @@ pub fn solve_held(
         opts.position_tolerance,
         opts.orientation_tolerance
     )))
+}
+
+/// Damped least squares as a problem of [`lm::minimise`]: the pose error at `q`, a step
+/// `(J^T J + lambda I) dq = J^T e` clamped into the position limits, one trial per iteration
+/// (each costs one FK evaluation).
+struct Ik<'a> {
+    robot: &'a Robot,
+    target_tcp: &'a Isometry3<f64>,
+    tcp: &'a Isometry3<f64>,
+    held: &'a [usize],
+    /// Position limits `(lower, upper)` per joint, rad.
+    limits: &'a [(f64, f64)],
+    opts: &'a DlsOptions,
+    /// Joint angles, rad.
+    q: Vec<f64>,
+    /// Storage of the trial angles, rad.
+    trial: Vec<f64>,
+    /// Geometric Jacobian at `q`, the held joints' columns zero.
+    jac: Matrix6xX<f64>,
+    /// Pose error at `q` (m, rad).
+    err: Vector6<f64>,
+}
+
+impl lm::Problem for Ik<'_> {
+    type Trial = Vector6<f64>;
+
+    fn cost(&self) -> f64 {
+        self.err.norm_squared()
+    }
+
+    fn converged(&self) -> bool {
+        converged(&self.err, self.opts)
+    }
+
+    fn trial(&mut self, lambda: f64) -> Option<(Vector6<f64>, f64)> {
+        let jt = self.jac.transpose();
+        let mut a = &jt * &self.jac;
+        for i in 0..self.q.len() {
+            a[(i, i)] += lambda;
+        }
+        let chol = a.cholesky()?;
+        let dq = chol.solve(&(&jt * self.err));
+        for ((t, (&qi, &d)), &(lo, hi)) in self
+            .trial
+            .iter_mut()
+            .zip(self.q.iter().zip(dq.iter()))
+            .zip(self.limits)
+        {
+            *t = (qi + d).clamp(lo, hi);
+        }
+        let trial_err = pose_error(
+            self.target_tcp,
+            &tcp_pose(self.robot, &self.trial, self.tcp),
+        );
+        Some((trial_err, trial_err.norm_squared()))
+    }
+
+    fn accept(&mut self, _trial_err: Vector6<f64>, _cost: f64) {
+        std::mem::swap(&mut self.q, &mut self.trial);
+        self.err = pose_error(
+            self.target_tcp,
+            &geometric_into(self.robot, &self.q, self.tcp, &mut self.jac),
+        );
+        hold_columns(&mut self.jac, self.held);
+    }
 }
 
 /// Zero the Jacobian columns of the held joints: the damped step then leaves them alone.

@@ -1,0 +1,155 @@
+//! Cross-validation: each candidate estimator fitted with one fold left out and scored on
+//! it, piece by piece; the pieces' errors give the structure error.
+
+use nalgebra::DVector;
+use rayon::prelude::*;
+
+use super::samples::{PieceId, Samples};
+use super::structure::{Piece, StructureError, structure_fit};
+use super::{CvScore, Estimator, Fit, Selection, Weighting, fit};
+use crate::error::{Error, Result};
+use crate::identification::model::PowerModel;
+
+/// Sums over the held-out samples of one piece.
+struct PieceSums {
+    /// Sum of the power errors (predicted minus measured), W.
+    error_w: f64,
+    /// Number of samples.
+    samples: usize,
+    /// Sum of the gradients of the predicted power, per parameter.
+    grad: Vec<f64>,
+    /// Sum of the predicted active powers `|P - P0|`, W.
+    active_w: f64,
+}
+
+/// Choose among `candidates` by cross-validation over the folds of the samples (see
+/// [`Samples::new`]), then fit the chosen one on all samples. On the held-out pieces, the
+/// mean-power errors beyond what the fold's parameter covariance and residual explain give
+/// the model's structure error (fitted by `structure_fit`: `structure_sigma_W` and `structure_rel`),
+/// used for prediction intervals.
+///
+/// Errors: no candidates, or a fit that fails on all data.
+pub fn select(
+    template: &PowerModel,
+    s: &Samples,
+    candidates: &[Estimator],
+    weighting: Weighting,
+) -> Result<Selection> {
+    if candidates.is_empty() {
+        return Err(Error::InvalidInput(
+            "cross-validation needs at least one estimator".into(),
+        ));
+    }
+    let folds = s.folds;
+    let mut scores = Vec::new();
+    let mut structure = Vec::new();
+    let mut full = Vec::new();
+    for &est in candidates {
+        let mut totals = Totals::default();
+        let mut held: Vec<Piece> = Vec::new();
+        // The folds' fits and the fit on all samples (the last), side by side.
+        let mut fits: Vec<Result<Fit>> = (0..=folds)
+            .into_par_iter()
+            .map(|k| {
+                fit(template, s, est, weighting, &|m| {
+                    k == folds || s.fold[m] != k
+                })
+            })
+            .collect();
+        let all = fits.pop().expect("the fit on all samples");
+        let Ok(fold_fits) = fits.into_iter().collect::<Result<Vec<Fit>>>() else {
+            continue;
+        };
+        for (k, f) in fold_fits.iter().enumerate() {
+            score_fold(s, k, f, &mut totals, &mut held);
+        }
+        if held.is_empty() {
+            continue;
+        }
+        full.push(all);
+        scores.push(CvScore {
+            estimator: est,
+            mean_power_rms_w: (totals.se_mean / held.len() as f64).sqrt(),
+            power_rmse_w: (totals.se_sample / totals.samples.max(1) as f64).sqrt(),
+            pieces: held.len(),
+        });
+        structure.push(structure_fit(&held));
+    }
+    let Some(best) = scores
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.mean_power_rms_w.total_cmp(&b.1.mean_power_rms_w))
+        .map(|(i, _)| i)
+    else {
+        // No candidate fits every fold: the fit on all data says why (rank deficiency names
+        // the parameters the data cannot reveal), or that the folds were too small.
+        fit(template, s, candidates[0], weighting, &|_| true)?;
+        return Err(Error::InvalidInput(
+            "no estimator could be fitted with any one run left out: record more runs or longer ones"
+                .into(),
+        ));
+    };
+    let chosen = scores[best].estimator;
+    let mut f = full.swap_remove(best)?;
+    let StructureError { sigma_w, rel } = structure[best];
+    (f.model.structure_sigma, f.model.structure_rel) = (sigma_w, rel);
+    Ok(Selection {
+        scores,
+        chosen,
+        fit: f,
+        consistent: None,
+        motor_power: s.motors,
+    })
+}
+
+/// Running sums of the cross-validation scores over the folds.
+#[derive(Default)]
+struct Totals {
+    /// Sum of the squared mean-power errors of the pieces, W^2.
+    se_mean: f64,
+    /// Sum of the squared power errors of the held-out samples, W^2.
+    se_sample: f64,
+    /// Held-out samples.
+    samples: usize,
+}
+
+/// Score the fit `f` of fold `k` on the arm's power of the samples it left out: its pieces
+/// appended to `held`, their errors added to `totals`.
+fn score_fold(s: &Samples, k: usize, f: &Fit, totals: &mut Totals, held: &mut Vec<Piece>) {
+    let np = s.params();
+    let z = DVector::from_column_slice(&f.estimate.values);
+    let p0 = z[np - 1];
+    let residual_var = f.estimate.residual_rms.powi(2);
+    let mut by_piece: std::collections::BTreeMap<PieceId, PieceSums> = Default::default();
+    let mut grad = vec![0.0; np];
+    for m in (0..s.len()).filter(|&m| s.fold[m] == k && s.motor[m].is_none()) {
+        let p = s.power(m, &z, Some(&mut grad));
+        let e = p - s.y[m];
+        totals.se_sample += e * e;
+        totals.samples += 1;
+        let entry = by_piece.entry(s.piece[m]).or_insert_with(|| PieceSums {
+            error_w: 0.0,
+            samples: 0,
+            grad: vec![0.0; np],
+            active_w: 0.0,
+        });
+        entry.error_w += e;
+        entry.samples += 1;
+        for (acc, g) in entry.grad.iter_mut().zip(&grad) {
+            *acc += g;
+        }
+        entry.active_w += (p - p0).abs();
+    }
+    for sums in by_piece.values() {
+        let c = sums.samples as f64;
+        let mean = sums.error_w / c;
+        let g = DVector::from_iterator(np, sums.grad.iter().map(|v| v / c));
+        let param_var = (g.transpose() * &f.covariance * &g)[(0, 0)].max(0.0);
+        totals.se_mean += mean * mean;
+        held.push(Piece {
+            error_w: mean,
+            explained_w2: param_var + residual_var / c,
+            active_w: sums.active_w / c,
+        });
+    }
+}

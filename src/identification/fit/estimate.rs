@@ -1,0 +1,234 @@
+//! One estimator's fit: the linear solution, Levenberg–Marquardt from it for the copper
+//! losses, the rounds of iterated weighting, and the copper coefficients the data cannot tell
+//! from zero held there.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::nonlinear::{levenberg_marquardt, lm_statistics};
+use super::weighting::variance_weights;
+use super::{Estimator, Fit, Param, Weighting, covariance::covariance, samples::Samples};
+use crate::error::Result;
+use crate::identification::lsq::{Estimate, solve};
+use crate::identification::model::PowerModel;
+use crate::identification::tuning;
+
+/// Measured power (W) at or below which a sample of a clipped signal (DC bus, grid) may be
+/// clipped, so the linear estimator leaves it out.
+const CLIPPED_BELOW_W: f64 = 2.0;
+
+/// Re-weightings of iterated weighted least squares (each from the previous fit's residuals).
+const WLS_ITERATIONS: usize = 2;
+
+/// Fit `estimator` on the samples for which `use_sample(m)` and the sample's fit flag hold,
+/// weighted by `weighting` (iterated: each weighting from the previous fit's residuals).
+/// `template` gives the robot's base-parameter set (its values are ignored). The covariance
+/// is the weighted one (the model's, where [`Estimator::Pmsm`] holds copper coefficients at
+/// zero, the free fit's); `residual_rms` stays the unweighted RMS in W of the arm's power (not
+/// the motors').
+pub fn fit(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    weighting: Weighting,
+    use_sample: &dyn Fn(usize) -> bool,
+) -> Result<Fit> {
+    let rows: Vec<usize> = (0..s.len())
+        .filter(|&m| s.fit[m] && use_sample(m))
+        .collect();
+    let run = |zero_copper: &[bool]| -> Result<Fit> {
+        let mut weights = vec![1.0; rows.len()];
+        let rounds = if weighting == Weighting::None {
+            0
+        } else {
+            WLS_ITERATIONS
+        };
+        // Only the last round's statistics are kept: the earlier ones give only weights.
+        for _ in 0..rounds {
+            let f = fit_weighted(template, s, estimator, &rows, &weights, zero_copper, false)?;
+            let z = DVector::from_column_slice(&f.estimate.values);
+            weights = variance_weights(s, &rows, &z, weighting);
+        }
+        fit_weighted(template, s, estimator, &rows, &weights, zero_copper, true)
+    };
+    let f = run(&vec![false; s.n])?;
+    if estimator != Estimator::Pmsm {
+        return Ok(f);
+    }
+    // Copper coefficients the data cannot tell from zero (on the bound, or within
+    // tuning::COPPER_SIGNIFICANCE standard deviations of it) are held at zero and the rest
+    // refitted: left free, they trade against the standby power and each other along
+    // directions the data barely see, and predict other motions far off
+    // (docs/experiments.md#copper-coefficients-held-at-zero; tests/consistent.rs).
+    let weak: Vec<bool> = (0..s.n)
+        .map(|i| {
+            let k = s.nb + i;
+            f.estimate.values[k]
+                <= tuning::COPPER_SIGNIFICANCE * f.covariance[(k, k)].max(0.0).sqrt()
+        })
+        .collect();
+    if !weak.iter().any(|&w| w) {
+        return Ok(f);
+    }
+    let mut held = run(&weak)?;
+    // Held at zero is an estimate, not knowledge: the model predicts with the free fit's
+    // covariance, in which a held coefficient keeps its spread and its trade against the
+    // standby and the others. A motion like the data then gets about the interval it had,
+    // and one whose torques on that joint go beyond the data's (a payload the data never
+    // carried) a wider one, not a narrow one around the missing copper loss. (The fit's own
+    // covariance keeps zero rows there: they mark the parameters it held.)
+    held.model.covariance = f.model.covariance;
+    Ok(held)
+}
+
+/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per row).
+/// Without `statistics` the fit's covariance is left zero and its estimate holds only the
+/// values (for a round of iterated weighting, which needs only the residuals).
+fn fit_weighted(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    rows: &[usize],
+    weights: &[f64],
+    zero_copper: &[bool],
+    statistics: bool,
+) -> Result<Fit> {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    // Linear solution without copper loss: y - dq . tau_known = (dq^T W_b) theta + P0 for
+    // the arm, y - dq_i tau_known,i = (dq_i W_b,i) theta + P0_i for motor i (the arm's
+    // clipped samples out). Its columns are z's without the copper coefficients.
+    let lin: Vec<(usize, f64)> = rows
+        .iter()
+        .zip(weights)
+        .filter(|(m, _)| !s.clipped || s.motor[**m].is_some() || s.y[**m] > CLIPPED_BELOW_W)
+        .map(|(m, w)| (*m, w.sqrt()))
+        .collect();
+    let to_z: Vec<usize> = (0..nb).chain(nb + n..np).collect();
+    let mut a = DMatrix::zeros(lin.len(), to_z.len());
+    let mut y = DVector::zeros(lin.len());
+    for (r, &(m, sw)) in lin.iter().enumerate() {
+        let st = s.state[m];
+        let v = &s.dq[st * n..(st + 1) * n];
+        let wb = &s.wb[st * n * nb..(st + 1) * n * nb];
+        let known = &s.tau_known[st * n..(st + 1) * n];
+        let joints = match s.motor[m] {
+            Some(i) => i..i + 1,
+            None => 0..n,
+        };
+        for k in 0..nb {
+            a[(r, k)] = sw * joints.clone().map(|i| v[i] * wb[i * nb + k]).sum::<f64>();
+        }
+        a[(r, s.constant(m) - n)] = sw;
+        y[r] = sw * (s.y[m] - joints.map(|i| v[i] * known[i]).sum::<f64>());
+    }
+    let layout = s.layout();
+    let names = layout.names(&template.names);
+    let names_lin: Vec<String> = to_z.iter().map(|&k| names[k].clone()).collect();
+    let mut est = solve(&a, &y, &names_lin)?;
+    est.params = to_z.iter().map(|&k| layout.param(k)).collect();
+    let mut z = DVector::zeros(np);
+    for (c, &k) in to_z.iter().enumerate() {
+        z[k] = est.values[c];
+    }
+    let (estimate, covariance) = match estimator {
+        _ if !statistics && estimator == Estimator::Total => (est, DMatrix::zeros(np, np)),
+        Estimator::Total => {
+            let x = DVector::from_column_slice(&est.values);
+            let series: Vec<usize> = lin.iter().map(|&(m, _)| s.series[m]).collect();
+            let at: Vec<_> = lin.iter().map(|&(m, _)| s.instant(m)).collect();
+            let cov_lin = covariance(&a, &(&y - &a * x), &series, &at)?;
+            let mut cov = DMatrix::zeros(np, np);
+            for (r, &kr) in to_z.iter().enumerate() {
+                for (c, &kc) in to_z.iter().enumerate() {
+                    cov[(kr, kc)] = cov_lin[(r, c)];
+                }
+            }
+            (est, cov)
+        }
+        Estimator::Pmsm => {
+            // Everything but the copper coefficients held at zero.
+            let free: Vec<bool> = (0..np)
+                .map(|k| k < nb || k >= nb + n || !zero_copper[k - nb])
+                .collect();
+            levenberg_marquardt(s, rows, weights, Some(&free), &mut z)?;
+            if statistics {
+                lm_statistics(template, s, rows, weights, Some(&free), &z)?
+            } else {
+                (est, DMatrix::zeros(np, np))
+            }
+        }
+    };
+    let mut model = template.clone();
+    model.efficiency_scaled = false;
+    model.theta.copy_from_slice(z.rows(0, nb).as_slice());
+    model.copper.copy_from_slice(z.rows(nb, n).as_slice());
+    model.constant.fill(0.0);
+    model.constant[0] = z[np - 1];
+    model.signal = if s.clipped {
+        crate::measurement::PowerSignal::Bus
+    } else {
+        crate::measurement::PowerSignal::Total
+    };
+    // The model's parameters are `[theta, c, P0]`: the motors' own standby powers only
+    // served the fit (their marginal is dropped).
+    let kept: Vec<usize> = (0..nb + n).chain([np - 1]).collect();
+    model.covariance = DMatrix::from_fn(kept.len(), kept.len(), |r, c| {
+        covariance[(kept[r], kept[c])]
+    })
+    .as_slice()
+    .to_vec();
+    // The residual in W (unweighted) of the arm's power over the fitted samples.
+    let arm: Vec<usize> = rows
+        .iter()
+        .copied()
+        .filter(|&m| s.motor[m].is_none())
+        .collect();
+    let residual_rms = (arm
+        .iter()
+        .map(|&m| (s.power(m, &z, None) - s.y[m]).powi(2))
+        .sum::<f64>()
+        / arm.len().max(1) as f64)
+        .sqrt();
+    Ok(Fit {
+        model,
+        estimate: Estimate {
+            values: z.as_slice().to_vec(),
+            residual_rms,
+            ..estimate
+        },
+        covariance,
+        layout,
+    })
+}
+
+impl Fit {
+    /// The estimated values only (for [`Estimator::Total`] without the copper coefficients it
+    /// holds at zero), with their names and covariance.
+    pub fn free_estimate(&self) -> Estimate {
+        let layout = self.layout;
+        let np = layout.len();
+        let free: Vec<usize> = (0..np)
+            .filter(|&k| {
+                !matches!(layout.param(k), Param::Copper(_)) || self.covariance[(k, k)] > 0.0
+            })
+            .collect();
+        let names = layout.names(&self.model.names);
+        let pick = |v: &[f64]| free.iter().map(|&k| v[k]).collect::<Vec<f64>>();
+        let std = pick(
+            &(0..np)
+                .map(|k| self.covariance[(k, k)].max(0.0).sqrt())
+                .collect::<Vec<_>>(),
+        );
+        let values = pick(&self.estimate.values);
+        Estimate {
+            names: free.iter().map(|&k| names[k].clone()).collect(),
+            params: free.iter().map(|&k| layout.param(k)).collect(),
+            rel_std: crate::identification::lsq::rel_std(&values, &std),
+            values,
+            std,
+            covariance: DMatrix::from_fn(free.len(), free.len(), |r, c| {
+                self.covariance[(free[r], free[c])]
+            }),
+            ..self.estimate.clone()
+        }
+    }
+}

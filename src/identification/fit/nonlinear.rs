@@ -1,0 +1,219 @@
+//! The nonlinear stage of the fit: Levenberg–Marquardt on the weighted residuals of the
+//! power model (evaluated in parallel) and the statistics of its final linearisation.
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+use super::covariance::covariance;
+use super::samples::{Instant, Samples};
+use crate::error::Result;
+use crate::identification::lsq::{Estimate, solve};
+use crate::identification::model::PowerModel;
+use crate::identification::tuning::CONVERGED_CHI2;
+use crate::numerics::lm;
+
+/// Iteration limit of Levenberg–Marquardt.
+const MAX_ITERATIONS: usize = 100;
+
+/// Damping increases tried per iteration of Levenberg–Marquardt.
+const MAX_TRIES: usize = 20;
+
+/// Fewest samples a thread evaluates at a time in Levenberg–Marquardt.
+const PARALLEL_SAMPLES: usize = 512;
+
+/// `J^T J` from the transposed Jacobian `J^T` (`p x m`, a column per sample) by the blocked
+/// matrix product, through a transposed view (not a copy): the costliest product of an
+/// iteration.
+fn gram(jac_t: &DMatrix<f64>) -> DMatrix<f64> {
+    let (p, m) = jac_t.shape();
+    let jac = nalgebra::DMatrixView::from_slice_with_strides(jac_t.as_slice(), m, p, p, 1);
+    jac_t * jac
+}
+
+/// Residuals of the observations `rows` at `z`, each times `sw` (the square roots of the
+/// weights), and with `jac_t` the transposed Jacobian likewise weighted, a column per
+/// observation. The observations are evaluated in parallel into disjoint slices (no
+/// reduction, so the result does not depend on the threads).
+fn weighted_residuals(
+    s: &Samples,
+    rows: &[usize],
+    sw: &[f64],
+    z: &DVector<f64>,
+    jac_t: Option<&mut DMatrix<f64>>,
+) -> DVector<f64> {
+    let mut r = DVector::zeros(rows.len());
+    let samples = r.as_mut_slice().par_iter_mut().zip(rows).zip(sw);
+    match jac_t {
+        Some(j) => samples
+            .zip(j.as_mut_slice().par_chunks_mut(s.params()))
+            .with_min_len(PARALLEL_SAMPLES)
+            .for_each(|(((rk, &m), &w), col)| {
+                *rk = w * (s.power(m, z, Some(col)) - s.y[m]);
+                col.iter_mut().for_each(|g| *g *= w);
+            }),
+        None => samples
+            .with_min_len(PARALLEL_SAMPLES)
+            .for_each(|((rk, &m), &w)| *rk = w * (s.power(m, z, None) - s.y[m])),
+    }
+    r
+}
+
+/// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
+/// linear solution), in place; only the parameters marked in `free` move (all when `None`).
+/// The shared loop ([`crate::numerics::lm`]) with Marquardt's damping (the diagonal of
+/// `J^T J` scaled), copper coefficients kept >= 0 by an active set and projection, and a
+/// stop when a step lowers the cost by less than [`CONVERGED_CHI2`] residual variances.
+pub(super) fn levenberg_marquardt(
+    s: &Samples,
+    rows: &[usize],
+    weights: &[f64],
+    free: Option<&[bool]>,
+    z: &mut DVector<f64>,
+) -> Result<()> {
+    let np = s.params();
+    let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let mut jac_t = DMatrix::zeros(np, rows.len());
+    let r = weighted_residuals(s, rows, &sw, z, Some(&mut jac_t));
+    let cost = r.norm_squared();
+    let mut problem = PowerFit {
+        s,
+        rows,
+        sw,
+        free,
+        z,
+        jac_t,
+        r,
+        cost,
+        jtj: DMatrix::zeros(np, np),
+        g: DVector::zeros(np),
+    };
+    lm::minimise(
+        &mut problem,
+        &lm::Options {
+            max_iterations: MAX_ITERATIONS,
+            max_tries: MAX_TRIES,
+            initial_damping: 1e-3,
+            min_damping: 1e-12,
+            max_damping: f64::INFINITY,
+            shrink: lm::Shrink::Divide(10.0),
+            // The fall in units of the residual variance (chi-square): below CONVERGED_CHI2
+            // the parameters are within 0.01 standard deviations of the least cost.
+            fall: Some(lm::Fall {
+                scale: (rows.len().saturating_sub(np)).max(1) as f64,
+                threshold: CONVERGED_CHI2,
+            }),
+            stall: None,
+            stop_when_stuck: true,
+        },
+    );
+    Ok(())
+}
+
+/// The power fit as a problem of [`lm::minimise`]: the weighted residuals of the samples
+/// `rows` at `z`, their transposed Jacobian, and this iteration's normal equations.
+struct PowerFit<'a> {
+    s: &'a Samples,
+    rows: &'a [usize],
+    /// Square roots of the weights, one per row.
+    sw: Vec<f64>,
+    /// The parameters that may move (all when `None`).
+    free: Option<&'a [bool]>,
+    /// The current parameters.
+    z: &'a mut DVector<f64>,
+    /// Transposed weighted Jacobian at `z`, a column per row.
+    jac_t: DMatrix<f64>,
+    /// Weighted residuals at `z`.
+    r: DVector<f64>,
+    /// `|r|^2` (of the trial that became `z`).
+    cost: f64,
+    /// `J^T J` with the held parameters decoupled.
+    jtj: DMatrix<f64>,
+    /// `J^T r` with the held parameters' entries zero.
+    g: DVector<f64>,
+}
+
+impl lm::Problem for PowerFit<'_> {
+    type Trial = DVector<f64>;
+
+    fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    fn linearise(&mut self) {
+        let (s, np) = (self.s, self.s.params());
+        self.jtj = gram(&self.jac_t);
+        self.g = &self.jac_t * &self.r;
+        // Held this iteration: the fixed parameters, and the copper coefficients on their
+        // bound (0) that the gradient pushes below it (the active set). Projecting a full
+        // Gauss-Newton step instead spoils it for every parameter correlated with the bound
+        // one, and the iteration crawls.
+        let held: Vec<bool> = (0..np)
+            .map(|k| {
+                let fixed = self.free.is_some_and(|f| !f[k]);
+                let copper = (s.nb..s.nb + s.n).contains(&k);
+                fixed || (copper && self.z[k] <= 0.0 && self.g[k] > 0.0)
+            })
+            .collect();
+        lm::hold(&mut self.jtj, &mut self.g, &held);
+    }
+
+    fn trial(&mut self, damping: f64) -> Option<(DVector<f64>, f64)> {
+        let s = self.s;
+        let mut a = self.jtj.clone();
+        for k in 0..s.params() {
+            a[(k, k)] += damping * self.jtj[(k, k)].max(1e-12);
+        }
+        let chol = a.cholesky()?;
+        let step = chol.solve(&(-&self.g));
+        let mut trial = &*self.z + &step;
+        // Copper-loss coefficients are resistances: kept >= 0 (projected).
+        for i in 0..s.n {
+            trial[s.nb + i] = trial[s.nb + i].max(0.0);
+        }
+        let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared();
+        Some((trial, c))
+    }
+
+    fn accept(&mut self, trial: DVector<f64>, cost: f64) {
+        *self.z = trial;
+        self.r = weighted_residuals(self.s, self.rows, &self.sw, self.z, Some(&mut self.jac_t));
+        self.cost = cost;
+    }
+}
+
+/// Statistics of the fit at `z` on the samples `rows` with `weights`: its estimate and the
+/// covariance of `z` (HAC, [`covariance`]) from the linearisation there over the parameters
+/// `free` marks (all when `None`); a held parameter gets zero rows and columns.
+pub(super) fn lm_statistics(
+    template: &PowerModel,
+    s: &Samples,
+    rows: &[usize],
+    weights: &[f64],
+    free: Option<&[bool]>,
+    z: &DVector<f64>,
+) -> Result<(Estimate, DMatrix<f64>)> {
+    let np = s.params();
+    let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let mut jac_t = DMatrix::zeros(np, rows.len());
+    let r = weighted_residuals(s, rows, &sw, z, Some(&mut jac_t));
+    let layout = s.layout();
+    let names = layout.names(&template.names);
+    // Statistics of the final linearisation over the parameters it moves (`J z - r` are its
+    // observations); a held parameter gets zero rows and columns in the covariance.
+    let moved: Vec<usize> = (0..np).filter(|&k| free.is_none_or(|f| f[k])).collect();
+    let jac = DMatrix::from_fn(rows.len(), moved.len(), |m, c| jac_t[(moved[c], m)]);
+    let y = &jac * DVector::from_iterator(moved.len(), moved.iter().map(|&k| z[k])) - &r;
+    let moved_names: Vec<String> = moved.iter().map(|&k| names[k].clone()).collect();
+    let mut est = solve(&jac, &y, &moved_names)?;
+    est.params = moved.iter().map(|&k| layout.param(k)).collect();
+    let series: Vec<usize> = rows.iter().map(|&m| s.series[m]).collect();
+    let at: Vec<Instant> = rows.iter().map(|&m| s.instant(m)).collect();
+    let moved_cov = covariance(&jac, &r, &series, &at)?;
+    let mut cov = DMatrix::zeros(np, np);
+    for (a, &ka) in moved.iter().enumerate() {
+        for (b, &kb) in moved.iter().enumerate() {
+            cov[(ka, kb)] = moved_cov[(a, b)];
+        }
+    }
+    Ok((est, cov))
+}

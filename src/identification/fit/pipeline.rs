@@ -1,0 +1,92 @@
+//! The pipeline from measured logs to a selected, physically consistent power model:
+//! prepare the logs, pool the samples, cross-validate the estimators, project the chosen fit
+//! onto consistent parameters and refit its loss terms.
+
+use nalgebra::DMatrix;
+
+use super::refit::refit_losses;
+use super::{FitOptions, Selection, samples::Samples, select};
+use crate::error::{Error, Result};
+use crate::identification::lsq::Estimate;
+use crate::identification::model::PowerModel;
+use crate::model::Robot;
+
+/// Identify the power model of `robot` from measured logs: states along `routes` (one for
+/// all logs, or one per log), known payloads through the base relations, the estimator
+/// chosen by cross-validation. Reads nothing but the logs. Errors: logs of another robot or
+/// joint count, rank-deficient data (naming the parameters), too little data.
+pub fn identify_logs(
+    robot: &Robot,
+    logs: &[crate::measurement::Log],
+    routes: &[crate::identification::data::Route],
+    opts: &FitOptions,
+) -> Result<Selection> {
+    if routes.len() != 1 && routes.len() != logs.len() {
+        return Err(Error::InvalidInput(format!(
+            "{} routes for {} logs: give one for all or one per log",
+            routes.len(),
+            logs.len()
+        )));
+    }
+    if !(opts.min_speed.is_finite() && opts.min_speed >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "minimum speed {} rad/s must be finite and >= 0",
+            opts.min_speed
+        )));
+    }
+    for log in logs {
+        log.check_robot(robot)?;
+    }
+    let prepared = logs
+        .iter()
+        .enumerate()
+        .map(|(k, l)| crate::identification::data::prepare(l, routes[k.min(routes.len() - 1)]))
+        .collect::<Result<Vec<_>>>()?;
+    let layout = crate::dynamics::ParamLayout::new(robot, true, true);
+    let template = PowerModel::new(robot, layout, false)?;
+    let motor_power = opts.motor_power
+        && prepared
+            .iter()
+            .all(|p| p.p_joint.len() == p.states.len() * robot.dof());
+    let samples = Samples::new(
+        robot,
+        &template,
+        &prepared,
+        opts.min_speed,
+        opts.folds,
+        motor_power,
+    )?;
+    let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
+    if opts.consistent {
+        let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));
+        let estimate = regularised(selection.fit.free_estimate());
+        let (model, consistent) = crate::identification::consistent::constrain(
+            robot,
+            &selection.fit.model,
+            &estimate,
+            &prior,
+            &crate::identification::consistent::Options::default(),
+        )?;
+        selection.fit.model = refit_losses(
+            &samples,
+            &selection.fit,
+            model,
+            selection.chosen,
+            opts.weighting,
+        )?;
+        selection.consistent = Some(consistent);
+    }
+    Ok(selection)
+}
+
+/// The estimate with its covariance made positive definite for the consistent projection:
+/// eigenvalues below `1e-12` of the largest (values the data fix exactly, e.g. a copper
+/// coefficient on its bound) raised to it.
+fn regularised(mut e: Estimate) -> Estimate {
+    let eig = e.covariance.clone().symmetric_eigen();
+    let floor = 1e-12 * eig.eigenvalues.max().max(0.0);
+    let values = eig.eigenvalues.map(|v| v.max(floor));
+    e.covariance =
+        &eig.eigenvectors * DMatrix::from_diagonal(&values) * eig.eigenvectors.transpose();
+    e
+}

@@ -1,0 +1,67 @@
+//! The power model of one observation: the arm's power or one motor's, clipped where the
+//! signal cannot go negative, and its gradient in the parameters.
+
+use nalgebra::DVector;
+
+use super::samples::Samples;
+
+impl Samples {
+    /// Predicted power (W, clipped when the arm's signal is) of observation `m` with
+    /// parameters `z`, and optionally its gradient with respect to `z`.
+    ///
+    /// Allocates nothing: it runs once per observation in every iteration of every fit.
+    pub(super) fn power(&self, m: usize, z: &DVector<f64>, grad: Option<&mut [f64]>) -> f64 {
+        let (n, nb) = (self.n, self.nb);
+        let p0 = z[self.constant(m)];
+        let z = z.as_slice();
+        let (theta, copper) = (&z[..nb], &z[nb..nb + n]);
+        let st = self.state[m];
+        let wb = &self.wb[st * n * nb..(st + 1) * n * nb];
+        let v = &self.dq[st * n..(st + 1) * n];
+        let known = &self.tau_known[st * n..(st + 1) * n];
+        let tau = |i: usize| -> f64 {
+            let row = &wb[i * nb..(i + 1) * nb];
+            row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
+        };
+        if let Some(i) = self.motor[m] {
+            let t = tau(i);
+            if let Some(g) = grad {
+                g.fill(0.0);
+                let d = v[i] + 2.0 * copper[i] * t;
+                for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
+                    *gk = d * a;
+                }
+                g[nb + i] = t * t;
+                g[self.constant(m)] = 1.0;
+            }
+            return p0 + (v[i] + copper[i] * t) * t;
+        }
+        let Some(g) = grad else {
+            let p = p0
+                + (0..n)
+                    .map(|i| {
+                        let t = tau(i);
+                        (v[i] + copper[i] * t) * t
+                    })
+                    .sum::<f64>();
+            return if self.clipped && p < 0.0 { 0.0 } else { p };
+        };
+        g.fill(0.0);
+        let mut p = p0;
+        for i in 0..n {
+            let t = tau(i);
+            p += (v[i] + copper[i] * t) * t;
+            let d = v[i] + 2.0 * copper[i] * t;
+            for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
+                *gk += d * a;
+            }
+            g[nb + i] = t * t;
+        }
+        g[self.constant(m)] = 1.0;
+        if self.clipped && p < 0.0 {
+            g.fill(0.0);
+            return 0.0;
+        }
+        p
+    }
+}

@@ -1,0 +1,52 @@
+//! The loss terms refitted under fixed base parameters (the consistent projection's).
+
+use nalgebra::DVector;
+
+use super::nonlinear::levenberg_marquardt;
+use super::weighting::variance_weights;
+use super::{Estimator, Fit, Weighting, samples::Samples};
+use crate::error::Result;
+use crate::identification::model::PowerModel;
+
+/// The loss terms refitted on the arm's power with the base parameters of `model` (e.g.
+/// physically consistent ones) held, from the values of `fitted` (the fit `model` came
+/// from): the copper coefficients `fitted` estimated (for [`Estimator::Pmsm`], kept >= 0;
+/// those it held at zero stay there) and the standby power, by Levenberg–Marquardt with the
+/// samples weighted by `weighting`. The projection moves the loss terms only along their
+/// correlation with the base parameters; the data decide them once those are fixed. The
+/// model predicts the arm's power, so its losses are refitted on the arm's power alone
+/// (docs/experiments.md#losses-refitted-on-the-arms-power).
+pub(super) fn refit_losses(
+    s: &Samples,
+    fitted: &Fit,
+    mut model: PowerModel,
+    estimator: Estimator,
+    weighting: Weighting,
+) -> Result<PowerModel> {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    let rows: Vec<usize> = (0..s.len())
+        .filter(|&m| s.fit[m] && s.motor[m].is_none())
+        .collect();
+    let mut z = DVector::from_column_slice(&fitted.estimate.values);
+    z.rows_mut(0, nb).copy_from_slice(&model.theta);
+    z.rows_mut(nb, n).copy_from_slice(&model.copper);
+    z[np - 1] = model.constant.iter().sum();
+    // A copper coefficient held at zero freed here trades against the standby, as in `fit`
+    // (docs/experiments.md#copper-coefficients-held-at-zero).
+    let free: Vec<bool> = (0..np)
+        .map(|k| {
+            let copper = k >= nb && k < nb + n;
+            k == np - 1
+                || (copper && estimator == Estimator::Pmsm && fitted.covariance[(k, k)] > 0.0)
+        })
+        .collect();
+    let weights = match weighting {
+        Weighting::None => vec![1.0; rows.len()],
+        w => variance_weights(s, &rows, &z, w),
+    };
+    levenberg_marquardt(s, &rows, &weights, Some(&free), &mut z)?;
+    model.copper.copy_from_slice(z.rows(nb, n).as_slice());
+    model.constant.fill(0.0);
+    model.constant[0] = z[np - 1];
+    Ok(model)
+}

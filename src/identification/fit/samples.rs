@@ -1,0 +1,365 @@
+//! The pooled identification samples: per logged state the regressor rows, speeds and known
+//! payload torques; per observation the measured power, its series and its
+//! cross-validation piece and fold.
+
+use nalgebra::DMatrix;
+
+use super::layout::Layout;
+use crate::dynamics::Workspace;
+use crate::dynamics::regressor::regressor;
+use crate::error::{Error, Result};
+use crate::identification::data::Prepared;
+use crate::identification::model::PowerModel;
+use crate::model::Robot;
+
+/// A cross-validation piece: one time block of one log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) struct PieceId {
+    /// Index of the log.
+    pub log: usize,
+    /// Time block of the log.
+    pub block: usize,
+}
+
+/// When an observation was taken: the log and the state (states numbered in time order).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) struct Instant {
+    /// Index of the log.
+    pub log: usize,
+    /// Index of the state among all pooled states.
+    pub state: usize,
+}
+
+/// A known payload from time `from_s` on: its base-parameter change (model units, not
+/// scaled), `None` without payload.
+struct PayloadSpan {
+    /// Start, s (log time).
+    from_s: f64,
+    /// Base-parameter change of the payload.
+    delta: Option<Vec<f64>>,
+}
+
+/// Pooled identification samples: per logged state the regressor rows, speeds and known
+/// payload torques; per observation (the arm's power at a state, or one motor's power there
+/// when the logs have it and the fit uses it) the measured power and the cross-validation
+/// block.
+pub struct Samples {
+    pub(super) n: usize,
+    pub(super) nb: usize,
+    /// Base regressor rows, `n x nb` per state, row-major, states one after the other
+    /// (flat, so that evaluating the model allocates nothing).
+    pub(super) wb: Vec<f64>,
+    /// Joint speeds, `n` per state, rad/s.
+    pub(super) dq: Vec<f64>,
+    /// Torque of the known payload, `n` per state, N m (zero without payload).
+    pub(super) tau_known: Vec<f64>,
+    /// The state of each observation.
+    pub(super) state: Vec<usize>,
+    /// What each observation measured: the arm's power (`None`) or motor `i`'s (0-based).
+    pub(super) motor: Vec<Option<usize>>,
+    /// Whether the parameters hold a standby power per motor (the logs' motor power is fitted).
+    pub(super) motors: bool,
+    /// Series of each observation: one measured signal of one log, in time order (the
+    /// residuals of neighbours in a series are correlated).
+    pub(super) series: Vec<usize>,
+    /// Measured power, W.
+    pub(super) y: Vec<f64>,
+    /// Whether the observation is used for fitting (every excited joint moves fast enough).
+    pub(super) fit: Vec<bool>,
+    /// Cross-validation piece.
+    pub(super) piece: Vec<PieceId>,
+    /// Cross-validation fold of each sample.
+    pub(super) fold: Vec<usize>,
+    /// Number of folds.
+    pub(super) folds: usize,
+    /// The signal cannot go negative.
+    pub(super) clipped: bool,
+}
+
+impl Samples {
+    /// Build the samples of `logs` for `model`'s base parameters. Samples at which an
+    /// excited joint moves slower than `min_speed` (rad/s) are kept for cross-validated
+    /// energies but not fitted on, unless every joint's velocity and acceleration is exactly
+    /// zero (a rest held still by the route). Each log is cut into `folds` contiguous time
+    /// blocks (the energy pieces); with three logs or more, each fold holds out a whole log (a
+    /// motion, centre and payload the fit did not see, as a prediction meets), else one block
+    /// of every log.
+    ///
+    /// `motor_power`: also observe each motor's logged power, `dq_i tau_i + c_i tau_i^2 +
+    /// P0_i` with a standby `P0_i` of its own (the paper's eq. 13 with per-motor power: each
+    /// joint's parameters seen in its own motor rather than under the larger joints' power).
+    /// Cross-validation still scores the arm's power only.
+    ///
+    /// Errors: logs of different power signals, no log that moves a joint
+    /// ([`ensure_motion`](crate::identification::data::ensure_motion)), a model of another
+    /// robot, a payload that is not physical, `motor_power` with a log without it.
+    pub fn new(
+        robot: &Robot,
+        model: &PowerModel,
+        logs: &[Prepared],
+        min_speed: f64,
+        folds: usize,
+        motor_power: bool,
+    ) -> Result<Samples> {
+        model.check_robot(robot)?;
+        let first = logs
+            .first()
+            .ok_or_else(|| Error::InvalidInput("no logs to identify from".into()))?;
+        crate::identification::data::ensure_motion(logs)?;
+        if logs
+            .iter()
+            .any(|p| p.signal.clipped() != first.signal.clipped())
+        {
+            return Err(Error::InvalidInput(
+                "the logs mix power signals that can and cannot go negative (total vs bus/grid)"
+                    .into(),
+            ));
+        }
+        let n = robot.dof();
+        if motor_power
+            && let Some(l) = logs
+                .iter()
+                .position(|p| p.p_joint.len() != p.states.len() * n)
+        {
+            return Err(Error::InvalidInput(format!(
+                "log {} has no power of each motor: identify from the arm's power only",
+                l + 1
+            )));
+        }
+        let nb = model.columns.len();
+        let needs_base = logs
+            .iter()
+            .any(|p| p.payloads.iter().any(|e| e.payload.is_some()));
+        let base = needs_base.then(|| model.base_params(robot)).transpose()?;
+        let mut s = Samples {
+            n,
+            nb,
+            wb: Vec::new(),
+            dq: Vec::new(),
+            tau_known: Vec::new(),
+            state: Vec::new(),
+            motor: Vec::new(),
+            motors: motor_power,
+            series: Vec::new(),
+            y: Vec::new(),
+            fit: Vec::new(),
+            piece: Vec::new(),
+            fold: Vec::new(),
+            folds: if logs.len() >= 3 {
+                logs.len()
+            } else {
+                folds.max(2)
+            },
+            clipped: first.signal.clipped(),
+        };
+        let mut ws = Workspace::new(robot);
+        let mut w = DMatrix::zeros(n, model.layout.len());
+        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for (l, p) in logs.iter().enumerate() {
+            if p.p_total.len() != p.states.len() {
+                return Err(Error::InvalidInput(format!(
+                    "log {}: {} power samples for {} states",
+                    l + 1,
+                    p.p_total.len(),
+                    p.states.len()
+                )));
+            }
+            let spans = payload_spans(robot, model, base.as_ref(), p)?;
+            let fit = fitted(p, min_speed);
+            let len = p.states.len();
+            let first_state = s.dq.len() / n;
+            for m in 0..len {
+                p.states.at(m, &mut q, &mut dq, &mut ddq);
+                regressor(robot, &mut ws, &model.layout, &q, &dq, &ddq, &mut w);
+                let t = p.states.t[m];
+                let delta = spans
+                    .iter()
+                    .rev()
+                    .find(|span| span.from_s <= t)
+                    .and_then(|span| span.delta.as_ref());
+                for i in 0..n {
+                    let row = model.columns.iter().map(|&c| w[(i, c)]);
+                    s.tau_known.push(match delta {
+                        Some(d) => row.clone().zip(d).map(|(a, b)| a * b).sum(),
+                        None => 0.0,
+                    });
+                    s.wb.extend(row);
+                }
+                s.dq.extend_from_slice(&dq);
+            }
+            s.push_observations(l, p, &fit, first_state, folds, logs.len() >= 3);
+        }
+        Ok(s)
+    }
+
+    /// Samples of pooled `states` (any order) with their total power `p` (W, a signal that
+    /// can go negative), no payload, all fitted on, in one fold: for estimators that pool
+    /// already-selected samples.
+    pub fn from_states(
+        robot: &Robot,
+        model: &PowerModel,
+        states: &crate::identification::states::States,
+        p: &[f64],
+    ) -> Result<Samples> {
+        model.check_robot(robot)?;
+        if p.len() != states.len() {
+            return Err(Error::InvalidInput(format!(
+                "{} power samples for {} states",
+                p.len(),
+                states.len()
+            )));
+        }
+        let n = robot.dof();
+        let nb = model.columns.len();
+        let mut ws = Workspace::new(robot);
+        let mut w = DMatrix::zeros(n, model.layout.len());
+        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut wbs = Vec::with_capacity(states.len() * n * nb);
+        let mut dqs = Vec::with_capacity(states.len() * n);
+        for m in 0..states.len() {
+            states.at(m, &mut q, &mut dq, &mut ddq);
+            regressor(robot, &mut ws, &model.layout, &q, &dq, &ddq, &mut w);
+            for i in 0..n {
+                wbs.extend(model.columns.iter().map(|&c| w[(i, c)]));
+            }
+            dqs.extend_from_slice(&dq);
+        }
+        let len = states.len();
+        Ok(Samples {
+            n,
+            nb,
+            wb: wbs,
+            dq: dqs,
+            tau_known: vec![0.0; len * n],
+            state: (0..len).collect(),
+            motor: vec![None; len],
+            motors: false,
+            series: vec![0; len],
+            y: p.to_vec(),
+            fit: vec![true; len],
+            piece: vec![PieceId { log: 0, block: 0 }; len],
+            fold: vec![0; len],
+            folds: 1,
+            clipped: false,
+        })
+    }
+
+    /// Number of observations.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// True when there are no observations.
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+
+    /// Layout of the parameters `z = [theta, c_1..c_n, P0_1..P0_n, P0]` (the motors' own
+    /// standby powers `P0_i` only when their power is observed).
+    pub(super) fn layout(&self) -> Layout {
+        Layout {
+            base: self.nb,
+            joints: self.n,
+            motors: self.motors,
+        }
+    }
+
+    /// Number of parameters of `z`.
+    pub(super) fn params(&self) -> usize {
+        self.layout().len()
+    }
+
+    /// The log and state of observation `m`: when it was taken.
+    pub(super) fn instant(&self, m: usize) -> Instant {
+        Instant {
+            log: self.piece[m].log,
+            state: self.state[m],
+        }
+    }
+
+    /// Index in `z` of the standby power observation `m` measures.
+    pub(super) fn constant(&self, m: usize) -> usize {
+        let layout = self.layout();
+        match self.motor[m] {
+            Some(i) => layout.motor_standby(i),
+            None => layout.standby(),
+        }
+    }
+}
+
+impl Samples {
+    /// Append the observations of log `l` (`p`, whose states start at `first_state`): the
+    /// arm's power, then each motor's when the samples observe them, every series contiguous
+    /// and in time order, with their fit flags `fit` (one per state), pieces (`folds` blocks
+    /// of the log) and folds (the log itself when `by_log`, else its block).
+    fn push_observations(
+        &mut self,
+        l: usize,
+        p: &Prepared,
+        fit: &[bool],
+        first_state: usize,
+        folds: usize,
+        by_log: bool,
+    ) {
+        let (n, len) = (self.n, fit.len());
+        let kinds = std::iter::once(None).chain((0..n).map(Some).filter(|_| self.motors));
+        for motor in kinds {
+            let series = self.series.last().map_or(0, |v| v + 1);
+            // A motor's samples are fitted where the arm's are: near another joint's
+            // reversal the motion leaves the route too (docs/experiments.md#motor-power).
+            for (m, &fit_m) in fit.iter().enumerate() {
+                self.state.push(first_state + m);
+                self.motor.push(motor);
+                self.series.push(series);
+                self.y.push(match motor {
+                    None => p.p_total[m],
+                    Some(i) => p.p_joint[m * n + i],
+                });
+                self.fit.push(fit_m);
+                let block = (m * folds.max(1)) / len;
+                self.piece.push(PieceId { log: l, block });
+                self.fold.push(if by_log { l } else { block });
+            }
+        }
+    }
+}
+
+/// The known payloads of log `p` from when each is at the flange, with its base-parameter
+/// change (model units, not scaled; `base` is the model's base-parameter set, needed only
+/// when a payload is present).
+fn payload_spans(
+    robot: &Robot,
+    model: &PowerModel,
+    base: Option<&crate::dynamics::base_params::BaseParams>,
+    p: &Prepared,
+) -> Result<Vec<PayloadSpan>> {
+    p.payloads
+        .iter()
+        .map(|e| {
+            let d = match (&e.payload, base) {
+                (Some(pl), Some(b)) => Some(model.payload_delta(b, robot, pl)?),
+                _ => None,
+            };
+            Ok(PayloadSpan {
+                from_s: e.t_s,
+                delta: d,
+            })
+        })
+        .collect()
+}
+
+/// Whether each state of log `p` is fitted on: every excited joint moves at least
+/// `min_speed` (rad/s), or the robot is held exactly still.
+fn fitted(p: &Prepared, min_speed: f64) -> Vec<bool> {
+    let len = p.states.len();
+    let mut fit = vec![false; len];
+    for m in p.states.moving(&p.excited, min_speed) {
+        fit[m] = true;
+    }
+    // A robot held exactly still (the spline route's rests) has no Coulomb sign to doubt: its
+    // power is the standby plus the copper loss of holding the pose, which pins the constant.
+    for (m, f) in fit.iter_mut().enumerate() {
+        *f |= p.states.dq.iter().all(|v| v[m] == 0.0) && p.states.ddq.iter().all(|a| a[m] == 0.0);
+    }
+    fit
+}
