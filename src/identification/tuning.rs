@@ -18,7 +18,7 @@ pub const FOLDS: usize = 5;
 /// Weighting of the samples by default: power-level (the residual variance grows with the
 /// predicted active power). Why: where the residual does not grow with the power it gives
 /// ordinary least squares to the printed digits; where it does, it keeps one design from
-/// misplacing the standby (docs/experiments.md#power-level-weighting).
+/// misplacing the standby (docs/experiments.md#power-level-weighting-as-the-fit-default).
 pub const WEIGHTING: Weighting = Weighting::PowerLevel;
 
 /// Make the chosen model physically consistent by default (loss terms refitted). Why: better
