@@ -155,6 +155,53 @@ pub fn project(
     let layout = *base.layout();
     let (nb, p) = (base.rank(), layout.len());
     let nt = theta_hat.len();
+    check_inputs(theta_hat, covariance, prior, opts, nb, p)?;
+    let r_info = information_root(covariance)?;
+    let k = base_map(base)?;
+    let k_aug = augmented_map(&k, nt, nb);
+    let extras = &theta_hat[nb..];
+    let scales = natural_scales(&layout, prior, extras);
+    let mut prior_aug = prior.to_vec();
+    prior_aug.extend(extras.iter().map(|v| v.max(0.0)));
+    let (phi, iterations) = minimise(
+        &layout, &r_info, &k_aug, theta_hat, &prior_aug, &scales, opts,
+    )?;
+
+    let fitted = &k_aug * &phi;
+    let dtheta = &fitted - DVector::from_column_slice(theta_hat);
+    let mahalanobis = (&r_info * &dtheta).norm();
+    let change_sigma: Vec<f64> = (0..nt)
+        .map(|i| dtheta[i].abs() / covariance[(i, i)].sqrt())
+        .collect();
+    let max_change_sigma = change_sigma.iter().cloned().fold(0.0, f64::max);
+    let names = layout.names();
+    let from_prior = set_by_prior(&k, &scales.s, &names)?;
+    Ok(Consistent {
+        names,
+        phi: phi.as_slice()[..p].to_vec(),
+        base_names: base.base_names(),
+        theta: fitted.as_slice()[..nb].to_vec(),
+        extras: phi.as_slice()[p..].to_vec(),
+        mahalanobis,
+        change_sigma,
+        max_change_sigma,
+        from_prior,
+        iterations,
+    })
+}
+
+/// Check the projection's inputs: `theta_hat` holds at least the `nb` base parameters,
+/// `covariance` is its square, `prior` has the `p` standard parameters, all finite, and the
+/// prior weight is finite and non-negative.
+fn check_inputs(
+    theta_hat: &[f64],
+    covariance: &DMatrix<f64>,
+    prior: &[f64],
+    opts: &Options,
+    nb: usize,
+    p: usize,
+) -> Result<()> {
+    let nt = theta_hat.len();
     if nt < nb || covariance.shape() != (nt, nt) || prior.len() != p {
         return Err(Error::InvalidInput(format!(
             "consistent projection: {} estimated values and a {}x{} covariance for {nb} base parameters (and non-negative extras), {} prior values for {p} standard parameters",
@@ -180,6 +227,13 @@ pub fn project(
             opts.lambda
         )));
     }
+    Ok(())
+}
+
+/// `R` with `R^T R = Info = Cov^-1`: `R = diag(1/sqrt(e)) V^T` from the eigen-decomposition
+/// of `covariance`, which must be symmetric positive definite.
+fn information_root(covariance: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    let nt = covariance.nrows();
     let asym = (covariance - covariance.transpose()).abs().max();
     let eig = covariance.clone().symmetric_eigen();
     let emax = eig.eigenvalues.max();
@@ -189,34 +243,51 @@ pub fn project(
                 .into(),
         ));
     }
-    // R^T R = Info = Cov^-1 with R = diag(1/sqrt(e)) V^T.
-    let r_info = DMatrix::from_fn(nt, nt, |i, j| {
+    Ok(DMatrix::from_fn(nt, nt, |i, j| {
         eig.eigenvectors[(j, i)] / eig.eigenvalues[i].sqrt()
-    });
-    let k = base_map(base)?;
-    // Extras: the estimate's values after the base parameters, non-negative (x = z^2), mapped
-    // to themselves. q = p + ne unknowns in all.
+    }))
+}
+
+/// The map from the `q = p + ne` unknowns (standard parameters, then the estimate's
+/// non-negative extras) to the `nt = nb + ne` estimated values: the base map `k` for the base
+/// parameters, the identity for the extras.
+fn augmented_map(k: &DMatrix<f64>, nt: usize, nb: usize) -> DMatrix<f64> {
+    let p = k.ncols();
     let ne = nt - nb;
-    let q = p + ne;
-    let mut k_aug = DMatrix::zeros(nt, q);
-    k_aug.view_mut((0, 0), (nb, p)).copy_from(&k);
+    let mut k_aug = DMatrix::zeros(nt, p + ne);
+    k_aug.view_mut((0, 0), (nb, p)).copy_from(k);
     for e in 0..ne {
         k_aug[(nb + e, p + e)] = 1.0;
     }
-    let rk = &r_info * &k_aug;
-    let rtheta = &r_info * DVector::from_column_slice(theta_hat);
-    let (mut s, lengths) = scales(&layout, prior);
-    let extras = &theta_hat[nb..];
+    k_aug
+}
+
+/// Natural scales of the projection's unknowns (standard parameters, then extras).
+struct Scales {
+    /// Scale of each unknown (its unit: kg, kg m, kg m^2, N m, W, ...).
+    s: Vec<f64>,
+    /// Natural unit of each coordinate of `z` for the damping and the step limit:
+    /// log-Cholesky logs are dimensionless, its off-diagonal entries are lengths (scale L),
+    /// drive terms and extras `sqrt(scale)`.
+    unit: Vec<f64>,
+    /// Each link's margin as standard parameters (added to the parametrised inertials).
+    offset: Vec<f64>,
+    /// Each link's consistency margin (pseudo-inertia), one per joint.
+    margins: Vec<Matrix4<f64>>,
+}
+
+/// The scales of the standard parameters from `prior`, of the `extras` from their own sizes
+/// (at least `1e-3` of the largest), and the units, offsets and margins they give.
+fn natural_scales(layout: &crate::dynamics::ParamLayout, prior: &[f64], extras: &[f64]) -> Scales {
+    let p = layout.len();
+    let q = p + extras.len();
+    let (mut s, lengths) = scales(layout, prior);
     let largest_extra = extras.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     s.extend(
         extras
             .iter()
             .map(|v| v.abs().max(1e-3 * largest_extra).max(1e-300)),
     );
-    let mut prior_aug = prior.to_vec();
-    prior_aug.extend(extras.iter().map(|v| v.max(0.0)));
-    // Natural units of z for the damping and the step limit: log-Cholesky logs are
-    // dimensionless, its off-diagonal entries are lengths (scale L), drive terms sqrt(scale).
     let mut unit = vec![1.0; q];
     for (j, l) in lengths.iter().enumerate() {
         let start = layout.link_start(j);
@@ -238,9 +309,33 @@ pub fn project(
         let start = layout.link_start(j);
         offset[start..start + INERTIAL].copy_from_slice(&standard_of(e));
     }
+    Scales {
+        s,
+        unit,
+        offset,
+        margins,
+    }
+}
+
+/// Minimise `|R (K phi - theta_hat)|^2 + lambda |W (phi - prior)|^2` over consistent `phi`
+/// by Levenberg–Marquardt in the parametrisation `z`, from the unconstrained minimiser made
+/// consistent; `prior_aug` is the prior of the standard parameters followed by the extras'.
+/// Returns `phi` (standard parameters, then extras) and the iterations used.
+fn minimise(
+    layout: &crate::dynamics::ParamLayout,
+    r_info: &DMatrix<f64>,
+    k_aug: &DMatrix<f64>,
+    theta_hat: &[f64],
+    prior_aug: &[f64],
+    scales: &Scales,
+    opts: &Options,
+) -> Result<(DVector<f64>, usize)> {
+    let (nt, q) = k_aug.shape();
+    let rk = r_info * k_aug;
+    let rtheta = r_info * DVector::from_column_slice(theta_hat);
     let sq = opts.lambda.sqrt();
-    let w = DVector::from_iterator(q, s.iter().map(|v| sq / v));
-    let prior_v = DVector::from_column_slice(&prior_aug);
+    let w = DVector::from_iterator(q, scales.s.iter().map(|v| sq / v));
+    let prior_v = DVector::from_column_slice(prior_aug);
     // The residual's Jacobian in phi.
     let mut j_phi = DMatrix::zeros(nt + q, q);
     j_phi.rows_mut(0, nt).copy_from(&rk);
@@ -257,18 +352,19 @@ pub fn project(
         .svd(true, true)
         .solve(&rhs, 1e-15)
         .map_err(|e| Error::Numerical(format!("consistent projection: {e}")))?;
-    let z = start_point(&layout, free.as_slice(), prior, &margins, &s);
+    let prior = &prior_aug[..layout.len()];
+    let z = start_point(layout, free.as_slice(), prior, &scales.margins, &scales.s);
 
     // Levenberg–Marquardt in z.
     let mut problem = Projection {
-        layout: &layout,
-        offset: &offset,
+        layout,
+        offset: &scales.offset,
         j_phi: &j_phi,
         rk: &rk,
         rtheta: &rtheta,
         prior: &prior_v,
         w: &w,
-        unit: &unit,
+        unit: &scales.unit,
         z: Vec::new(),
         phi: DVector::zeros(0),
         dphi: DMatrix::zeros(0, 0),
@@ -300,29 +396,7 @@ pub fn project(
             stop_when_stuck: true,
         },
     );
-    let (phi, iterations) = (problem.phi, report.iterations);
-
-    let fitted = &k_aug * &phi;
-    let dtheta = &fitted - DVector::from_column_slice(theta_hat);
-    let mahalanobis = (&r_info * &dtheta).norm();
-    let change_sigma: Vec<f64> = (0..nt)
-        .map(|i| dtheta[i].abs() / covariance[(i, i)].sqrt())
-        .collect();
-    let max_change_sigma = change_sigma.iter().cloned().fold(0.0, f64::max);
-    let names = layout.names();
-    let from_prior = set_by_prior(&k, &s, &names)?;
-    Ok(Consistent {
-        names,
-        phi: phi.as_slice()[..p].to_vec(),
-        base_names: base.base_names(),
-        theta: fitted.as_slice()[..nb].to_vec(),
-        extras: phi.as_slice()[p..].to_vec(),
-        mahalanobis,
-        change_sigma,
-        max_change_sigma,
-        from_prior,
-        iterations,
-    })
+    Ok((problem.phi, report.iterations))
 }
 
 /// The start of the projection's Levenberg–Marquardt: the unconstrained minimiser `free`
