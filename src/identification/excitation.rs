@@ -661,7 +661,7 @@ pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
             .max_function_evals(opts.max_evals)
             .seed(opts.seed.wrapping_add(s as u64))
             .build(objective)
-            .map_err(|e| Error::InvalidInput(format!("CMA-ES options: {e:?}")))?;
+            .map_err(|e| Error::Numerical(format!("CMA-ES options: {e:?}")))?;
         let result = state.run();
         evaluations += state.function_evals();
         if let Some(b) = result.overall_best
@@ -671,7 +671,7 @@ pub fn design(robot: &Robot, opts: &ExcitationOptions) -> Result<Excitation> {
         }
     }
     let (_, x, cond_initial) =
-        best.ok_or_else(|| Error::InvalidInput("CMA-ES found no point".into()))?;
+        best.ok_or_else(|| Error::Numerical("CMA-ES found no point".into()))?;
     let trajectory = problem.trajectory(&x)?;
     let (a, penalty) = problem.evaluate(&trajectory, 1.0);
     if penalty > 0.0 {

@@ -373,7 +373,7 @@ pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
                         .wrapping_add(k as u64),
                 )
                 .build(objective)
-                .map_err(|e| Error::InvalidInput(format!("CMA-ES options: {e:?}")))?;
+                .map_err(|e| Error::Numerical(format!("CMA-ES options: {e:?}")))?;
             let result = state.run_parallel();
             evaluations += state.function_evals();
             if let Some(b) = result.overall_best {

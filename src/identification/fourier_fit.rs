@@ -64,7 +64,7 @@ pub fn fit_fourier(
     }
     let coef = svd
         .solve(&y, 0.0)
-        .map_err(|e| Error::InvalidInput(format!("Fourier fit failed: {e}")))?;
+        .map_err(|e| Error::Numerical(format!("Fourier fit failed: {e}")))?;
     let resid = &x * &coef - &y;
     let rms = (0..q.len())
         .map(|i| (resid.column(i).norm_squared() / m as f64).sqrt())

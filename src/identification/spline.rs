@@ -204,7 +204,7 @@ fn end_derivatives(t: &[f64], x: &[f64], at: f64) -> Result<[f64; 2]> {
     let c = v
         .lu()
         .solve(&DVector::from_column_slice(x))
-        .ok_or_else(|| Error::InvalidInput("the spline's end polynomial is singular".into()))?;
+        .ok_or_else(|| Error::Numerical("the spline's end polynomial is singular".into()))?;
     let d3 = if m > 3 {
         6.0 * c[3] / scale.powi(3)
     } else {
@@ -292,8 +292,7 @@ pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Res
                 upper[k] = mu * g.fixed_view::<3, 3>(0, 3);
             }
         }
-        let singular =
-            || Error::InvalidInput("the smoothing spline's equations are singular".into());
+        let singular = || Error::Numerical("the smoothing spline's equations are singular".into());
         for k in 1..n {
             let w = lower[k] * diag[k - 1].try_inverse().ok_or_else(singular)?;
             diag[k] -= w * upper[k - 1];
@@ -336,7 +335,7 @@ pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Res
     }
     let x = solve(mu(lo))?;
     if let Some(bad) = x.iter().find(|v| !v.is_finite()) {
-        return Err(Error::InvalidInput(format!(
+        return Err(Error::Numerical(format!(
             "the smoothing spline overflowed ({bad})"
         )));
     }

@@ -160,7 +160,7 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
             let y = DVector::from_fn(window, |r, _| qi[start + r]);
             let c = svd
                 .solve(&y, 0.0)
-                .map_err(|e| Error::InvalidInput(format!("smoothing fit failed: {e}")))?;
+                .map_err(|e| Error::Numerical(format!("smoothing fit failed: {e}")))?;
             s.q[i][k] = c[0];
             s.dq[i][k] = c[1];
             s.ddq[i][k] = 2.0 * c[2];
