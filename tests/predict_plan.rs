@@ -268,6 +268,15 @@ fn scenario_energy_is_sweeps_prediction() {
         "--load",
         "2",
     ]);
+    // Without --speed and --load: the sweep speed nearest 0.5 m/s and the heaviest load.
+    let default = predict_json(&["--model", &s(model), "--scenario", &s(&scenario)]);
+    assert!(
+        default["source"]
+            .as_str()
+            .unwrap()
+            .ends_with("at 0.5 m/s, load 4 kg"),
+        "{default}"
+    );
     let out = tmp("sweep");
     let (code, text, err) = powertwin(&[
         "sweep",

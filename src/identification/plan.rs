@@ -112,14 +112,6 @@ pub fn price(
     })
 }
 
-/// Times from 0 to `duration_s` (s) every `period_s`, with the end itself.
-pub fn sample_times(duration_s: f64, period_s: f64) -> Vec<f64> {
-    let steps = (duration_s / period_s).ceil().max(1.0) as usize;
-    let mut t: Vec<f64> = (0..steps).map(|k| k as f64 * period_s).collect();
-    t.push(duration_s);
-    t
-}
-
 /// The cell of a scenario's sweep that `predict --scenario` prices when no speed or load is
 /// given: the sweep speed nearest 0.5 m/s and the heaviest load level (the cell the sweep
 /// shows as its representative), each replaced by `speed_m_s` / `load_kg` when given.
