@@ -114,7 +114,7 @@ pub struct PayloadArgs {
 impl PayloadArgs {
     /// Warn on stderr for each built-in payload of `--payload` used on a robot that is not
     /// the IRB 1200 (a payload file gives no warning).
-    fn warn_foreign(&self, robot: &Robot) {
+    pub(super) fn warn_foreign(&self, robot: &Robot) {
         for name in self.payload.iter().flat_map(|p| p.split('+')) {
             if !Path::new(name).exists() {
                 crate::cli::warn_foreign_payload(name.trim(), robot);
@@ -123,7 +123,7 @@ impl PayloadArgs {
     }
 
     /// The timeline the arguments give, or `None` to keep the log's own.
-    fn events(&self) -> Result<Option<Vec<PayloadEvent>>> {
+    pub(super) fn events(&self) -> Result<Option<Vec<PayloadEvent>>> {
         if let Some(path) = &self.payload_events {
             return Ok(Some(timeline_from_file(path)?));
         }

@@ -96,7 +96,8 @@ enum Command {
     Excite(excite::ExciteArgs),
     /// Identify base parameters (and motor losses) from the power in datasets.
     Identify(identify::IdentifyArgs),
-    /// Predict the energy of a dataset's motion with an identified model (95 % interval).
+    /// Predict the energy of a logged motion, or of a planned trajectory or scenario task, with
+    /// an identified model (95 % interval).
     Predict(predict::PredictArgs),
     /// Judge an identified model on held-out motions run on the twin (out of sample).
     Validate(validate::ValidateArgs),

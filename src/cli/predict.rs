@@ -1,18 +1,23 @@
 //! `powertwin predict`: the energy of logged motions by an identified model, with its 95 %
 //! interval; the power at the logged samples against the measured one (`--power-out`); the
-//! logs with the model's power in Rerun.
+//! logs with the model's power in Rerun. With `--trajectory` or `--scenario`, the energy and
+//! power of a planned motion nobody has run ([`powertwin::identification::plan`]).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
+use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::identification::data::{Prepared, power_times, prepare};
 use powertwin::identification::energy::window_energies;
-use powertwin::identification::model::{DATASHEET_EFFICIENCY, Prediction};
+use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel, Prediction};
+use powertwin::identification::plan::{price, price_scenario, read_plan, scenario_cell};
 use powertwin::io::write_atomic;
+use powertwin::model::payload::PayloadEvent;
+use powertwin::trajectory::task::Scenario;
 use serde_json::json;
 
 use super::identify::{PayloadArgs, RouteArgs, gather};
@@ -32,10 +37,32 @@ pub struct PredictArgs {
     #[arg(
         long,
         value_name = "DIR",
-        required_unless_present = "log",
+        required_unless_present_any = ["log", "trajectory", "scenario"],
         conflicts_with = "log"
     )]
     data: Option<PathBuf>,
+    /// A planned joint trajectory to price, no power needed: CSV with t_s (s), q1_rad..qn_rad
+    /// and optionally dq1_rad_s.. and ddq1_rad_s2.. (as `simulate --trajectory` and `excite`
+    /// write; names without units also read). Interpolated as `simulate` does: quintic Hermite
+    /// through positions, velocities and accelerations, cubic Hermite through positions and
+    /// velocities, a C2 cubic spline through positions alone (clamped to zero velocity at an
+    /// end where a joint stands still). Refused outside the joint position or velocity
+    /// limits. Payloads: --payload from before the start, or --payload-events on the file's
+    /// t_s clock.
+    #[arg(long, value_name = "PLAN.csv", conflicts_with_all = ["data", "log", "scenario"])]
+    trajectory: Option<PathBuf>,
+    /// A task scenario TOML to price as planned at --speed and --load (as `sweep` plans a
+    /// cell: the scenario's tool from the start, each load from its pick to its release).
+    #[arg(long, value_name = "S.toml", conflicts_with_all = ["data", "log", "payload", "payload_events"])]
+    scenario: Option<PathBuf>,
+    /// Commanded TCP speed of --scenario, m/s [default: the scenario's sweep speed nearest
+    /// 0.5 m/s].
+    #[arg(long, value_name = "M_S", requires = "scenario")]
+    speed: Option<f64>,
+    /// Load level L of --scenario, kg (load 1 = L/2, the heavier load = L for the built-in
+    /// scenario) [default: the scenario's heaviest sweep load level].
+    #[arg(long, value_name = "KG", requires = "scenario")]
+    load: Option<f64>,
     #[command(flatten)]
     logs: LogArgs,
     #[command(flatten)]
@@ -46,7 +73,8 @@ pub struct PredictArgs {
     /// `log` (1-based, in the order printed), `t_s` (the log's clock; for a logger that
     /// averages power, the middle of each sample period), `measured_{signal}_W` and
     /// `predicted_{signal}_W` (the modelled signal: total, bus or grid; a bus or grid
-    /// prediction never goes negative).
+    /// prediction never goes negative). For --trajectory or --scenario: `t_s` (the plan
+    /// file's clock, or from the scenario's start) and `P_predicted_W` at the plan's samples.
     #[arg(long, value_name = "FILE.csv")]
     power_out: Option<PathBuf>,
     /// Machine-readable JSON instead of text.
@@ -90,6 +118,12 @@ impl Row {
 pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let model = read_model(&args.model, &robot)?;
+    if args.scenario.is_none() && (args.speed.is_some() || args.load.is_some()) {
+        bail!("--speed and --load apply to --scenario only");
+    }
+    if args.trajectory.is_some() || args.scenario.is_some() {
+        return run_plan(args, &robot, &model);
+    }
     #[cfg(feature = "viz")]
     let viz = args.viz.open(None)?;
     let data: Vec<PathBuf> = args.data.iter().cloned().collect();
@@ -231,6 +265,74 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
             );
         }
         super::emit(&o)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `predict --trajectory` or `--scenario`: price a plan nobody has run.
+fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<ExitCode> {
+    let (source, price, t0) = if let Some(path) = &args.trajectory {
+        args.payloads.warn_foreign(robot);
+        let traj = read_plan(robot, path)?;
+        let t0 = traj.start_time();
+        // A timeline's times are on the file's clock; the plan's run from its first sample.
+        let events: Vec<PayloadEvent> = args
+            .payloads
+            .events()?
+            .unwrap_or_default()
+            .into_iter()
+            .map(|e| PayloadEvent {
+                t_s: e.t_s - t0,
+                ..e
+            })
+            .collect();
+        let price = price(
+            model,
+            robot,
+            &traj,
+            &events,
+            DATASHEET_EFFICIENCY,
+            traj.sample_times(),
+        )
+        .with_context(|| format!("predicting {}", path.display()))?;
+        (path.display().to_string(), price, t0)
+    } else {
+        let path = args.scenario.as_ref().context("no plan given")?;
+        let scenario = Scenario::from_file(path)?;
+        let (speed, load) = scenario_cell(&scenario, args.speed, args.load)?;
+        let price = price_scenario(model, robot, &scenario, speed, load, DATASHEET_EFFICIENCY)
+            .with_context(|| format!("predicting {}", path.display()))?;
+        let source = format!("{} at {speed} m/s, load {load} kg", path.display());
+        (source, price, 0.0)
+    };
+    if let Some(path) = &args.power_out {
+        let mut csv = String::from("t_s,P_predicted_W\n");
+        for (t, p) in price.t_s.iter().zip(&price.power_w) {
+            let _ = writeln!(csv, "{},{p}", t + t0);
+        }
+        write_atomic(path, csv.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let pred = &price.prediction;
+    if args.json {
+        let v = json!({
+            "source": source,
+            "energy_J": pred.energy_j,
+            "interval_J": [pred.energy_j - pred.interval_j, pred.energy_j + pred.interval_j],
+            "interval_95_J": pred.interval_j,
+            "duration_s": pred.duration_s,
+            "mean_power_W": price.mean_power_w(),
+            "power_signal": model.signal.name(),
+        });
+        super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
+    } else {
+        super::emit(&format!(
+            "{source}: predicted {:.2} ± {:.2} J (95 %), duration {:.3} s, mean power {:.2} W\n",
+            pred.energy_j,
+            pred.interval_j,
+            pred.duration_s,
+            price.mean_power_w()
+        ))?;
     }
     Ok(ExitCode::SUCCESS)
 }

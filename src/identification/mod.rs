@@ -16,6 +16,7 @@ pub mod last_link;
 pub mod linear;
 pub mod lsq;
 pub mod model;
+pub mod plan;
 pub mod pmsm;
 pub mod spline;
 pub mod states;

@@ -166,6 +166,11 @@ impl Sampled {
         (k, tau - self.knots[k])
     }
 
+    /// Sample times relative to the first sample, s (strictly increasing, from 0).
+    pub fn sample_times(&self) -> &[f64] {
+        &self.knots
+    }
+
     /// The interpolant in use.
     pub fn interpolation(&self) -> Interpolation {
         self.interpolation
