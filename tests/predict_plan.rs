@@ -6,7 +6,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use common::{run as powertwin, tmp};
+use common::{run as powertwin, run_ok, tmp};
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::io::table::Table;
 use powertwin::trajectory::sampled::Sampled;
@@ -21,7 +21,8 @@ fn fixture() -> &'static (PathBuf, PathBuf) {
     static FIXTURE: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
     FIXTURE.get_or_init(|| {
         let (traj, data, model) = (tmp("ex.csv"), tmp("ds"), tmp("model.json"));
-        let (code, _, err) = powertwin(&[
+        let (traj_s, data_s, model_s) = (s(&traj), s(&data), s(&model));
+        run_ok(&[
             "excite",
             "--joints",
             "1-6",
@@ -32,33 +33,30 @@ fn fixture() -> &'static (PathBuf, PathBuf) {
             "--evals",
             "800",
             "--out",
-            &s(&traj),
+            &traj_s,
         ]);
-        assert_eq!(code, 0, "{err}");
-        let (code, _, err) = powertwin(&[
+        run_ok(&[
             "simulate",
             "--trajectory",
-            &s(&traj),
+            &traj_s,
             "--out",
-            &s(&data),
+            &data_s,
             "--motor",
             "efficiency",
             "--noise",
             "none",
         ]);
-        assert_eq!(code, 0, "{err}");
-        let (code, _, err) = powertwin(&[
+        run_ok(&[
             "identify",
             "--data",
-            &s(&data),
+            &data_s,
             "--method",
             "total",
             "--base-freq",
             "0.1",
             "--out",
-            &s(&model),
+            &model_s,
         ]);
-        assert_eq!(code, 0, "{err}");
         (traj, model)
     })
 }

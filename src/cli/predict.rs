@@ -144,35 +144,27 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     for log in &logs {
         let p = prepare(log, args.route.route())?;
         let events = p.motion_events();
-        let prediction = model.predict(
-            &robot,
-            p.motion.as_ref(),
-            &events,
-            DATASHEET_EFFICIENCY,
-            1e-3,
-        )?;
         let measured_j: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
             .iter()
             .sum();
         let t_s = power_times(&p.states.t, p.power_averaged);
         let t: Vec<f64> = t_s.iter().map(|t| t - p.motion_t0_s).collect();
-        let mut predicted_w = model.power_with_payloads(
+        // The log's motion is priced as a plan is: same step, same clipping of the power.
+        let priced = price(
+            &model,
             &robot,
             p.motion.as_ref(),
             &events,
             DATASHEET_EFFICIENCY,
             &t,
         )?;
-        if model.signal.clipped() {
-            predicted_w.iter_mut().for_each(|v| *v = v.max(0.0));
-        }
         rows.push(Row {
             source: log.source.clone(),
-            prediction,
+            prediction: priced.prediction,
             measured_j,
             t_s,
             measured_w: p.p_total.clone(),
-            predicted_w,
+            predicted_w: priced.power_w,
         });
         prepared.push(p);
     }

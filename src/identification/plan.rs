@@ -16,7 +16,8 @@ use crate::trajectory::limits::check_limits;
 use crate::trajectory::sampled::Sampled;
 use crate::trajectory::task::Scenario;
 
-/// Integration step of a plan's energy, s: the step `predict` integrates a log's route with.
+/// Integration step of a priced motion's energy, s (a plan's, and a log's motion in
+/// `predict`).
 pub const PLAN_DT_S: f64 = 1e-3;
 
 /// Step at which a plan read from a file is checked against the joint limits, s.

@@ -68,6 +68,14 @@ pub fn run(args: &[&str]) -> (i32, String, String) {
     )
 }
 
+/// Run `powertwin` with `args`, which must succeed (exit 0; the assertion shows stderr);
+/// returns stdout.
+pub fn run_ok(args: &[&str]) -> String {
+    let (code, out, err) = run(args);
+    assert_eq!(code, 0, "powertwin {}: {err}", args.join(" "));
+    out
+}
+
 /// A path `name` in the scratch directory of this test binary: `powertwin-<binary>` under
 /// Cargo's `CARGO_TARGET_TMPDIR` (inside the target directory, so `cargo clean` removes it),
 /// emptied when the binary first asks for it. Each run of a test binary replaces its
