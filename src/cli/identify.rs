@@ -16,6 +16,7 @@ use powertwin::identification::fit::{CvScore, Estimator, FitOptions, Weighting, 
 use powertwin::identification::linear::{self, Observation};
 use powertwin::identification::lsq::Estimate;
 use powertwin::identification::model::PowerModel;
+use powertwin::identification::prior::{Determination, Prior, PriorWidths};
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
 use powertwin::measurement::Log;
@@ -189,6 +190,72 @@ pub struct IdentifyArgs {
     /// Also write the identified drives (rotor inertia, friction, copper loss, standby power).
     #[arg(long, value_name = "OUT.drive.toml")]
     export_drive: Option<PathBuf>,
+    #[command(flatten)]
+    prior: PriorArgs,
+    /// Print the report (model path, estimator, cross-validation, determined directions,
+    /// each parameter's source) as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The prior of identification: what the URDF and the drive file already say.
+#[derive(Debug, Args)]
+pub struct PriorArgs {
+    /// Drive file whose data-sheet friction and rotor inertia centre the prior [default: the
+    /// built-in drive for the built-in robot, else the URDF's <dynamics> friction].
+    #[arg(long, value_name = "PATH")]
+    drive: Option<PathBuf>,
+    /// A prior width (one standard deviation), repeatable: mass=0.3 (relative), com=0.02 (m),
+    /// inertia=0.5 (relative to the mean principal moment), friction=0.5 and rotor=0.5
+    /// (relative to the drive file's value). The defaults are those.
+    #[arg(long, value_name = "KEY=VALUE")]
+    prior_width: Vec<String>,
+    /// Identify from the data alone, without the prior: a log that leaves directions of the
+    /// base-parameter space undetermined is then refused (--method auto, total and pmsm; the
+    /// paper's methods never use the prior).
+    #[arg(long, conflicts_with_all = ["drive", "prior_width"])]
+    no_prior: bool,
+}
+
+impl PriorArgs {
+    /// The widths of `--prior-width` over the defaults.
+    fn widths(&self) -> Result<PriorWidths> {
+        let mut w = PriorWidths::default();
+        for item in &self.prior_width {
+            let (key, value) = item
+                .split_once('=')
+                .with_context(|| format!("--prior-width {item}: expected KEY=VALUE"))?;
+            let v: f64 = value
+                .trim()
+                .parse()
+                .with_context(|| format!("--prior-width {item}: '{value}' is not a number"))?;
+            let slot = match key.trim() {
+                "mass" => &mut w.mass_rel,
+                "com" => &mut w.com_m,
+                "inertia" => &mut w.inertia_rel,
+                "friction" => &mut w.friction_rel,
+                "rotor" => &mut w.rotor_rel,
+                other => bail!(
+                    "--prior-width {item}: unknown key '{other}' (mass, com, inertia, friction, rotor)"
+                ),
+            };
+            *slot = v;
+        }
+        Ok(w)
+    }
+
+    /// The prior of `robot` from the URDF, the drive file and the widths (`None` with
+    /// `--no-prior`).
+    pub(super) fn prior(&self, robot: &Robot, robot_args: &RobotArgs) -> Result<Option<Prior>> {
+        if self.no_prior {
+            return Ok(None);
+        }
+        let drive = robot_args.drive(robot, self.drive.as_ref())?;
+        Ok(Some(
+            Prior::for_robot(robot, drive.as_ref(), &self.widths()?)
+                .context("building the prior from the URDF and drive file")?,
+        ))
+    }
 }
 
 /// Read the datasets' logs for `robot`, with the payload timeline of `payloads` when given.
@@ -260,7 +327,8 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     check_method(args, &logs, fitted, min_speed)?;
     let route = args.route.route();
     let identified = if fitted {
-        identify_fitted(args, &robot, &logs, route, min_speed)?
+        let prior = args.prior.prior(&robot, &args.robot)?;
+        identify_fitted(args, &robot, &logs, route, min_speed, prior)?
     } else {
         identify_paper(args.method, &robot, &logs, route, min_speed)?
     };
@@ -275,9 +343,16 @@ fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64)
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
         );
     }
-    if !fitted && (args.unconstrained || args.arm_power_only || args.weighting.is_some()) {
+    let prior_args = args.prior.drive.is_some() || !args.prior.prior_width.is_empty();
+    if !fitted
+        && (args.unconstrained
+            || args.arm_power_only
+            || args.weighting.is_some()
+            || prior_args
+            || args.prior.no_prior)
+    {
         bail!(
-            "--weighting, --unconstrained and --arm-power-only apply to --method auto, total and pmsm, not {:?}",
+            "--weighting, --unconstrained, --arm-power-only and the prior's options apply to --method auto, total and pmsm, not {:?}",
             args.method
         );
     }
@@ -302,6 +377,10 @@ struct Identified {
     estimates: Vec<Estimate>,
     /// Cross-validation score per candidate estimator (empty for the paper's methods).
     cross_validation: Vec<CvScore>,
+    /// The estimator cross-validation chose (`None` for the paper's methods).
+    estimator: Option<Estimator>,
+    /// What the data determined against the prior (`None` without one).
+    determination: Option<Determination>,
 }
 
 /// `--method auto`, `total` or `pmsm`: the fitted estimators, chosen by cross-validation.
@@ -311,6 +390,7 @@ fn identify_fitted(
     logs: &[Log],
     route: Route,
     min_speed: f64,
+    prior: Option<Prior>,
 ) -> Result<Identified> {
     let candidates = match args.method {
         Method::Total => vec![Estimator::Total],
@@ -325,6 +405,7 @@ fn identify_fitted(
             .map_or(FitOptions::default().weighting, Into::into),
         consistent: !args.unconstrained,
         motor_power: !args.arm_power_only,
+        prior: prior.clone(),
         ..FitOptions::default()
     };
     let sel = identify_logs(robot, logs, &[route], &opts)?;
@@ -351,10 +432,13 @@ fn identify_fitted(
             c.mahalanobis, c.max_change_sigma
         );
     }
+    let determination = prior.map(|p| p.determination(&sel.fit.model)).transpose()?;
     Ok(Identified {
         model: sel.fit.model.clone(),
         estimates: vec![sel.fit.free_estimate()],
         cross_validation: sel.scores,
+        estimator: Some(sel.chosen),
+        determination,
     })
 }
 
@@ -442,6 +526,8 @@ fn identify_paper(
         model,
         estimates,
         cross_validation: Vec::new(),
+        estimator: None,
+        determination: None,
     })
 }
 
@@ -452,6 +538,8 @@ fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified)
         model,
         estimates,
         cross_validation: cv,
+        estimator,
+        determination,
     } = identified;
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
     let consistency = consistency(robot, model, 1.0, 200, 1)?;
@@ -468,6 +556,7 @@ fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified)
         "estimates": estimates,
         "cross_validation": cv,
         "consistency": consistency,
+        "determination": determination,
     });
     write_atomic(&args.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))?;
@@ -497,5 +586,42 @@ fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified)
             consistency.negative_drive_terms.join(", ")
         }
     );
+    if let Some(d) = determination {
+        report_determination(d);
+    }
+    if args.json {
+        let report = json!({
+            "model_path": args.out,
+            "method": format!("{:?}", args.method).to_lowercase(),
+            "estimator": estimator,
+            "cross_validation": cv,
+            "condition_number": estimates.last().map(|e| e.cond),
+            "physically_consistent": consistency.consistent,
+            "determination": determination,
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    }
     Ok(())
+}
+
+/// Print what the data determined and what would determine the rest.
+fn report_determination(d: &Determination) {
+    eprintln!(
+        "determined by the data: {} of {} directions of the base-parameter space",
+        d.directions, d.of
+    );
+    let prior = d.mostly_prior();
+    if prior.is_empty() {
+        eprintln!(
+            "every base parameter is determined by the data (posterior std <= 0.5 x prior std)"
+        );
+        return;
+    }
+    eprintln!(
+        "mostly from the prior (URDF and drive file; posterior std > 0.5 x prior std): {}",
+        prior.join(", ")
+    );
+    if let Some(advice) = d.advice() {
+        eprintln!("to determine them: {advice}; the intervals carry the prior's width meanwhile");
+    }
 }

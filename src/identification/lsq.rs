@@ -138,6 +138,180 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
     })
 }
 
+/// A Gaussian prior on the columns of a least-squares problem: `root (x - mean)` is
+/// standard normal (`root^T root` the prior's precision, in the columns' units; zero columns
+/// for values without a prior).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnPrior {
+    /// Root of the precision, `k x p`.
+    pub root: DMatrix<f64>,
+    /// Mean, `p` values (ignored where `root`'s column is zero).
+    pub mean: DVector<f64>,
+}
+
+impl ColumnPrior {
+    /// The prior of the columns `cols` only (others held at their values).
+    pub fn columns(&self, cols: &[usize]) -> ColumnPrior {
+        ColumnPrior {
+            root: DMatrix::from_fn(self.root.nrows(), cols.len(), |r, c| {
+                self.root[(r, cols[c])]
+            }),
+            mean: DVector::from_fn(cols.len(), |c, _| self.mean[cols[c]]),
+        }
+    }
+}
+
+/// The posterior of `a x = y` (rows with a common noise variance `s^2`) under the Gaussian
+/// `prior`: the mean `(A^T A + s^2 P)^-1 (A^T y + s^2 P mean)` with `P = root^T root`, and
+/// its covariance `s^2 (A^T A + s^2 P)^-1`. `s^2` is the residual variance of the data alone
+/// (their least squares over the directions they determine, `|r|^2 / (m - rank)`), so the
+/// prior weighs as much as it should against the data whatever the rows' units. Unlike
+/// [`solve`], a rank-deficient `a` is no error where the prior covers the directions the
+/// data miss: they come from the prior. `cond` is the data's condition number (infinite when
+/// rank deficient). Returns the estimate and `s^2`.
+pub fn solve_with_prior(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    prior: &ColumnPrior,
+) -> Result<(Estimate, f64)> {
+    let (m, p) = a.shape();
+    if names.len() != p || y.len() != m || prior.root.ncols() != p || prior.mean.len() != p {
+        return Err(Error::InvalidInput(format!(
+            "regressor {m}x{p}, {} observations, {} names, prior of {} columns",
+            y.len(),
+            names.len(),
+            prior.root.ncols()
+        )));
+    }
+    if a.iter().chain(y.iter()).any(|v| !v.is_finite()) {
+        return Err(Error::InvalidInput(
+            "regressor or observations contain NaN or infinite values".into(),
+        ));
+    }
+    let (r, qty) = reduce(a, Some(y));
+    let qty = qty.unwrap_or_else(|| y.clone());
+    let (cond, rank, s2) = data_noise(a, y, &r, &qty)?;
+    // The stacked system [R; s root] x = [Q^T y; s root mean] has the posterior's normal
+    // equations (|A x - y|^2 = |R x - Q^T y|^2 + const).
+    let s = s2.sqrt();
+    let k = prior.root.nrows();
+    let stacked = DMatrix::from_fn(r.nrows() + k, p, |i, c| {
+        if i < r.nrows() {
+            r[(i, c)]
+        } else {
+            s * prior.root[(i - r.nrows(), c)]
+        }
+    });
+    let prior_rhs = &prior.root * &prior.mean * s;
+    let rhs = DVector::from_fn(r.nrows() + k, |i, _| {
+        if i < r.nrows() {
+            qty[i]
+        } else {
+            prior_rhs[i - r.nrows()]
+        }
+    });
+    let norms: Vec<f64> = stacked.column_iter().map(|c| c.norm()).collect();
+    if let Some(c) = norms.iter().position(|n| *n == 0.0) {
+        return Err(Error::RankDeficient {
+            rank,
+            cols: p,
+            unidentifiable: format!("{} (not excited and without a prior)", names[c]),
+        });
+    }
+    let scaled = DMatrix::from_fn(stacked.nrows(), p, |i, c| stacked[(i, c)] / norms[c]);
+    let svd = scaled.svd(true, true);
+    let posterior_cond = svd.singular_values.max() / svd.singular_values.min();
+    if posterior_cond.is_nan() || posterior_cond > MAX_COND {
+        return Err(Error::RankDeficient {
+            rank,
+            cols: p,
+            unidentifiable: format!(
+                "directions neither the data nor the prior determine (condition number {posterior_cond:.3e})"
+            ),
+        });
+    }
+    let x_scaled = svd
+        .solve(
+            &DMatrix::from_column_slice(rhs.len(), 1, rhs.as_slice()),
+            0.0,
+        )
+        .map_err(|e| Error::Numerical(format!("least squares failed: {e}")))?;
+    let values: Vec<f64> = (0..p).map(|c| x_scaled[(c, 0)] / norms[c]).collect();
+    let v_t = svd
+        .v_t
+        .as_ref()
+        .ok_or_else(|| Error::Numerical("SVD without V".into()))?;
+    let inv_s = DMatrix::from_fn(p, p, |k, c| v_t[(k, c)] / svd.singular_values[k]);
+    let covariance = DMatrix::from_fn(p, p, |i, j| {
+        s2 * inv_s.column(i).dot(&inv_s.column(j)) / (norms[i] * norms[j])
+    });
+    let std: Vec<f64> = (0..p).map(|c| covariance[(c, c)].max(0.0).sqrt()).collect();
+    let resid = a * DVector::from_column_slice(&values) - y;
+    let estimate = Estimate {
+        names: names.to_vec(),
+        rel_std: rel_std(&values, &std),
+        values,
+        std,
+        cond,
+        residual_rms: (resid.norm_squared() / m as f64).sqrt(),
+        rows: m,
+        covariance,
+        params: Vec::new(),
+    };
+    Ok((estimate, s2))
+}
+
+/// The data's own condition number, numerical rank and residual variance `s^2` (of their
+/// least squares over the directions they determine, truncated at [`MAX_COND`]) from `A`'s
+/// triangular factor `r` and `Q^T y`. Errors: no more observations than that rank.
+fn data_noise(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    r: &DMatrix<f64>,
+    qty: &DVector<f64>,
+) -> Result<(f64, usize, f64)> {
+    let (m, p) = a.shape();
+    let norms: Vec<f64> = a
+        .column_iter()
+        .map(|c| {
+            let n = c.norm();
+            if n > 0.0 { n } else { 1.0 }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(r.nrows(), p, |i, c| r[(i, c)] / norms[c]);
+    let svd = scaled.svd(true, true);
+    let smax = svd.singular_values.max();
+    let tol = smax / MAX_COND;
+    let rank = svd.singular_values.iter().filter(|v| **v > tol).count();
+    let cond = if rank < p {
+        f64::INFINITY
+    } else {
+        smax / svd.singular_values.min()
+    };
+    if m <= rank {
+        return Err(Error::InvalidInput(format!(
+            "{m} observations for {rank} directions the data determine: need more data"
+        )));
+    }
+    let x_scaled = svd
+        .solve(
+            &DMatrix::from_column_slice(qty.len(), 1, qty.as_slice()),
+            tol,
+        )
+        .map_err(|e| Error::Numerical(format!("least squares failed: {e}")))?;
+    let x = DVector::from_fn(p, |c, _| x_scaled[(c, 0)] / norms[c]);
+    let rss = (a * x - y).norm_squared();
+    // A floor for data the model fits exactly (synthetic tests): the prior then only fills
+    // the directions the data miss.
+    let floor = 1e-12 * y.norm_squared() / m as f64;
+    Ok((
+        cond,
+        rank,
+        (rss / (m - rank) as f64).max(floor).max(f64::MIN_POSITIVE),
+    ))
+}
+
 /// Rows per block of the blocked QR decomposition in [`reduce`] (at least four times the
 /// columns).
 const QR_BLOCK_ROWS: usize = 1024;

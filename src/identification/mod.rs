@@ -18,6 +18,7 @@ pub mod lsq;
 pub mod model;
 pub mod plan;
 pub mod pmsm;
+pub mod prior;
 pub mod spline;
 pub mod states;
 pub mod steps;

@@ -5,6 +5,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::samples::Instant;
 use crate::error::{Error, Result};
+use crate::identification::lsq::ColumnPrior;
 
 /// Covariance of the least-squares estimate from the (weighted) design `a` and its residuals
 /// `r` (one per row), computed with the columns scaled to unit norm. Rows of one log
@@ -24,24 +25,53 @@ use crate::error::{Error, Result};
 /// state's error (the route's, the structure's), so the scores of one instant are summed
 /// before the kernel runs over the instants of each log. Series taken as independent,
 /// duplicated observations would count as new information.
+///
+/// With a Gaussian `prior` on the columns and the rows' noise variance `s^2` (the estimate
+/// then being the posterior mean `(A^T A + s^2 P)^-1 (A^T y + s^2 P mean)`, `P` the prior's
+/// precision), the covariance is that of the estimate's error over both the noise and the
+/// prior's spread of the truth: `B (S + s^4 P) B` with `B = (A^T A + s^2 P)^-1`. With white
+/// residuals that is the posterior covariance `(A^T A / s^2 + P)^-1`; without a prior, the
+/// sandwich above. The degrees of freedom use the effective number of parameters
+/// `tr(B A^T A)`.
 pub(super) fn covariance(
     a: &DMatrix<f64>,
     r: &DVector<f64>,
     series: &[usize],
     at: &[Instant],
+    prior: Option<(&ColumnPrior, f64)>,
 ) -> Result<DMatrix<f64>> {
     let (m, p) = a.shape();
     debug_assert_eq!(r.len(), m);
     debug_assert_eq!((series.len(), at.len()), (m, m));
-    let norms: Vec<f64> = a.column_iter().map(|c| c.norm().max(1e-300)).collect();
-    // The triangular factor has A's singular values and right singular vectors.
+    // The triangular factor has A's singular values and right singular vectors; the prior's
+    // rows `s root` below it make the factor of `A^T A + s^2 P`.
     let (rf, _) = crate::identification::lsq::reduce(a, None);
-    let scaled = DMatrix::from_fn(rf.nrows(), p, |i, c| rf[(i, c)] / norms[c]);
+    let stacked = match prior {
+        Some((pr, s2)) => {
+            let k = pr.root.nrows();
+            DMatrix::from_fn(rf.nrows() + k, p, |i, c| {
+                if i < rf.nrows() {
+                    rf[(i, c)]
+                } else {
+                    s2.sqrt() * pr.root[(i - rf.nrows(), c)]
+                }
+            })
+        }
+        None => rf.clone(),
+    };
+    let norms: Vec<f64> = match prior {
+        Some(_) => stacked
+            .column_iter()
+            .map(|c| c.norm().max(1e-300))
+            .collect(),
+        None => a.column_iter().map(|c| c.norm().max(1e-300)).collect(),
+    };
+    let scaled = DMatrix::from_fn(stacked.nrows(), p, |i, c| stacked[(i, c)] / norms[c]);
     let svd = scaled.svd(false, true);
     let v_t = svd
         .v_t
         .ok_or_else(|| Error::Numerical("SVD without V".into()))?;
-    // (A_s^T A_s)^-1 of the scaled columns.
+    // B = (A_s^T A_s + s^2 P_s)^-1 of the scaled columns.
     let bread = DMatrix::from_fn(p, p, |i, j| {
         (0..p)
             .map(|k| v_t[(k, i)] * v_t[(k, j)] / svd.singular_values[k].powi(2))
@@ -65,8 +95,16 @@ pub(super) fn covariance(
         }
     }
     let logs: Vec<usize> = instants.keys().map(|i| i.log).collect();
-    let meat = bartlett_meat(&g, &logs, lag);
-    let dof = m as f64 / (m.saturating_sub(p)).max(1) as f64;
+    let mut meat = bartlett_meat(&g, &logs, lag);
+    let mut p_eff = p as f64;
+    if let Some((pr, s2)) = prior {
+        // s^4 P in the scaled columns, and tr(B A^T A) = p - tr(B s^2 P).
+        let root_s = DMatrix::from_fn(pr.root.nrows(), p, |i, c| pr.root[(i, c)] / norms[c]);
+        let info = root_s.transpose() * &root_s * s2;
+        meat += &info * s2;
+        p_eff -= (&bread * &info).trace();
+    }
+    let dof = m as f64 / (m as f64 - p_eff).max(1.0);
     let cov_scaled = &bread * meat * &bread * dof;
     Ok(DMatrix::from_fn(p, p, |i, j| {
         cov_scaled[(i, j)] / (norms[i] * norms[j])
@@ -182,8 +220,8 @@ mod tests {
             }
             let x = a.clone().svd(true, true).solve(&e, 0.0).unwrap();
             let r = &e - &a * &x;
-            hac += covariance(&a, &r, &log, &at).unwrap()[(0, 0)] / draws as f64;
-            plain += covariance(&a, &r, &unrelated, &apart).unwrap()[(0, 0)] / draws as f64;
+            hac += covariance(&a, &r, &log, &at, None).unwrap()[(0, 0)] / draws as f64;
+            plain += covariance(&a, &r, &unrelated, &apart, None).unwrap()[(0, 0)] / draws as f64;
             est.push(x[0]);
         }
         let spread = sample_variance(&est);
@@ -227,8 +265,9 @@ mod tests {
             });
             let x = a.clone().svd(true, true).solve(&e, 0.0).unwrap();
             let r = &e - &a * &x;
-            together += covariance(&a, &r, &series, &shared).unwrap()[(1, 1)] / draws as f64;
-            independent += covariance(&a, &r, &series, &apart).unwrap()[(1, 1)] / draws as f64;
+            together += covariance(&a, &r, &series, &shared, None).unwrap()[(1, 1)] / draws as f64;
+            independent +=
+                covariance(&a, &r, &series, &apart, None).unwrap()[(1, 1)] / draws as f64;
             est.push(x[1]);
         }
         let spread = sample_variance(&est);

@@ -8,7 +8,7 @@ use super::nonlinear::{levenberg_marquardt, lm_statistics};
 use super::weighting::variance_weights;
 use super::{Estimator, Fit, Param, Weighting, covariance::covariance, samples::Samples};
 use crate::error::Result;
-use crate::identification::lsq::{Estimate, solve};
+use crate::identification::lsq::{Estimate, solve, solve_with_prior};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning;
 
@@ -123,7 +123,14 @@ fn fit_weighted(
     let layout = s.layout();
     let names = layout.names(&template.names);
     let names_lin: Vec<String> = to_z.iter().map(|&k| names[k].clone()).collect();
-    let mut est = solve(&a, &y, &names_lin)?;
+    // With a prior, the posterior: the data decide what they determine, the prior the rest;
+    // `s2` is the weighted rows' noise variance that weighs the prior against them.
+    let z_prior = s.z_prior();
+    let (mut est, s2) = match &z_prior {
+        Some(pr) => solve_with_prior(&a, &y, &names_lin, &pr.columns(&to_z))?,
+        None => (solve(&a, &y, &names_lin)?, 0.0),
+    };
+    let prior = z_prior.as_ref().map(|pr| (pr, s2));
     est.params = to_z.iter().map(|&k| layout.param(k)).collect();
     let mut z = DVector::zeros(np);
     for (c, &k) in to_z.iter().enumerate() {
@@ -135,7 +142,14 @@ fn fit_weighted(
             let x = DVector::from_column_slice(&est.values);
             let series: Vec<usize> = lin.iter().map(|&(m, _)| s.series[m]).collect();
             let at: Vec<_> = lin.iter().map(|&(m, _)| s.instant(m)).collect();
-            let cov_lin = covariance(&a, &(&y - &a * x), &series, &at)?;
+            let lin_prior = prior.map(|(pr, s2)| (pr.columns(&to_z), s2));
+            let cov_lin = covariance(
+                &a,
+                &(&y - &a * x),
+                &series,
+                &at,
+                lin_prior.as_ref().map(|(pr, s2)| (pr, *s2)),
+            )?;
             let mut cov = DMatrix::zeros(np, np);
             for (r, &kr) in to_z.iter().enumerate() {
                 for (c, &kc) in to_z.iter().enumerate() {
@@ -149,9 +163,9 @@ fn fit_weighted(
             let free: Vec<bool> = (0..np)
                 .map(|k| k < nb || k >= nb + n || !zero_copper[k - nb])
                 .collect();
-            levenberg_marquardt(s, rows, weights, Some(&free), &mut z)?;
+            levenberg_marquardt(s, rows, weights, Some(&free), prior, &mut z)?;
             if statistics {
-                lm_statistics(template, s, rows, weights, Some(&free), &z)?
+                lm_statistics(template, s, rows, weights, Some(&free), prior, &z)?
             } else {
                 (est, DMatrix::zeros(np, np))
             }

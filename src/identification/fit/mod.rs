@@ -171,6 +171,11 @@ pub struct FitOptions {
     /// Also fit each motor's logged power when every log has it ([`Samples::new`]), else
     /// the arm's power alone.
     pub motor_power: bool,
+    /// Prior of the base parameters ([`crate::identification::prior`]): every fit is then
+    /// the posterior, and a log that leaves directions undetermined still gives a model
+    /// (those directions from the prior, with its width in the intervals). `None`: the data
+    /// alone, and rank-deficient data are an error.
+    pub prior: Option<crate::identification::prior::Prior>,
 }
 
 impl Default for FitOptions {
@@ -185,6 +190,7 @@ impl Default for FitOptions {
             weighting: tuning::WEIGHTING,
             consistent: tuning::CONSISTENT,
             motor_power: tuning::MOTOR_POWER,
+            prior: None,
         }
     }
 }

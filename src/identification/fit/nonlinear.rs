@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::covariance::covariance;
 use super::samples::{Instant, Samples};
 use crate::error::Result;
-use crate::identification::lsq::{Estimate, solve};
+use crate::identification::lsq::{ColumnPrior, Estimate, solve, solve_with_prior};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning::CONVERGED_CHI2;
 use crate::numerics::lm;
@@ -63,23 +63,32 @@ fn weighted_residuals(
 /// The shared loop ([`crate::numerics::lm`]) with Marquardt's damping (the diagonal of
 /// `J^T J` scaled), copper coefficients kept >= 0 by an active set and projection, and a
 /// stop when a step lowers the cost by less than [`CONVERGED_CHI2`] residual variances.
+///
+/// With a `prior` (on `z`, with the rows' noise variance `s^2`), its rows `s root (z - mean)`
+/// join the residuals: the minimum is the posterior mode.
 pub(super) fn levenberg_marquardt(
     s: &Samples,
     rows: &[usize],
     weights: &[f64],
     free: Option<&[bool]>,
+    prior: Option<(&ColumnPrior, f64)>,
     z: &mut DVector<f64>,
 ) -> Result<()> {
     let np = s.params();
     let sw: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let mut jac_t = DMatrix::zeros(np, rows.len());
     let r = weighted_residuals(s, rows, &sw, z, Some(&mut jac_t));
-    let cost = r.norm_squared();
+    let prior = prior.map(|(pr, s2)| PriorRows {
+        root: &pr.root * s2.sqrt(),
+        target: &pr.root * &pr.mean * s2.sqrt(),
+    });
+    let cost = r.norm_squared() + prior.as_ref().map_or(0.0, |p| p.cost(z));
     let mut problem = PowerFit {
         s,
         rows,
         sw,
         free,
+        prior,
         z,
         jac_t,
         r,
@@ -109,6 +118,26 @@ pub(super) fn levenberg_marquardt(
     Ok(())
 }
 
+/// The prior's rows in a fit: residuals `root z - target`.
+struct PriorRows {
+    /// `s root`.
+    root: DMatrix<f64>,
+    /// `s root mean`.
+    target: DVector<f64>,
+}
+
+impl PriorRows {
+    /// The prior rows' residuals at `z`.
+    fn residuals(&self, z: &DVector<f64>) -> DVector<f64> {
+        &self.root * z - &self.target
+    }
+
+    /// Their sum of squares at `z`.
+    fn cost(&self, z: &DVector<f64>) -> f64 {
+        self.residuals(z).norm_squared()
+    }
+}
+
 /// The power fit as a problem of [`lm::minimise`]: the weighted residuals of the samples
 /// `rows` at `z`, their transposed Jacobian, and this iteration's normal equations.
 struct PowerFit<'a> {
@@ -118,6 +147,8 @@ struct PowerFit<'a> {
     sw: Vec<f64>,
     /// The parameters that may move (all when `None`).
     free: Option<&'a [bool]>,
+    /// The prior's rows, if any.
+    prior: Option<PriorRows>,
     /// The current parameters.
     z: &'a mut DVector<f64>,
     /// Transposed weighted Jacobian at `z`, a column per row.
@@ -143,6 +174,10 @@ impl lm::Problem for PowerFit<'_> {
         let (s, np) = (self.s, self.s.params());
         self.jtj = gram(&self.jac_t);
         self.g = &self.jac_t * &self.r;
+        if let Some(p) = &self.prior {
+            self.jtj += p.root.transpose() * &p.root;
+            self.g += p.root.transpose() * p.residuals(self.z);
+        }
         // Held this iteration: the fixed parameters, and the copper coefficients on their
         // bound (0) that the gradient pushes below it (the active set). Projecting a full
         // Gauss-Newton step instead spoils it for every parameter correlated with the bound
@@ -170,7 +205,8 @@ impl lm::Problem for PowerFit<'_> {
         for i in 0..s.n {
             trial[s.nb + i] = trial[s.nb + i].max(0.0);
         }
-        let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared();
+        let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared()
+            + self.prior.as_ref().map_or(0.0, |p| p.cost(&trial));
         Some((trial, c))
     }
 
@@ -183,13 +219,15 @@ impl lm::Problem for PowerFit<'_> {
 
 /// Statistics of the fit at `z` on the samples `rows` with `weights`: its estimate and the
 /// covariance of `z` (HAC, [`covariance`]) from the linearisation there over the parameters
-/// `free` marks (all when `None`); a held parameter gets zero rows and columns.
+/// `free` marks (all when `None`); a held parameter gets zero rows and columns. With a
+/// `prior` (and the rows' noise variance), the posterior's statistics.
 pub(super) fn lm_statistics(
     template: &PowerModel,
     s: &Samples,
     rows: &[usize],
     weights: &[f64],
     free: Option<&[bool]>,
+    prior: Option<(&ColumnPrior, f64)>,
     z: &DVector<f64>,
 ) -> Result<(Estimate, DMatrix<f64>)> {
     let np = s.params();
@@ -204,11 +242,21 @@ pub(super) fn lm_statistics(
     let jac = DMatrix::from_fn(rows.len(), moved.len(), |m, c| jac_t[(moved[c], m)]);
     let y = &jac * DVector::from_iterator(moved.len(), moved.iter().map(|&k| z[k])) - &r;
     let moved_names: Vec<String> = moved.iter().map(|&k| names[k].clone()).collect();
-    let mut est = solve(&jac, &y, &moved_names)?;
+    let moved_prior = prior.map(|(pr, s2)| (pr.columns(&moved), s2));
+    let mut est = match &moved_prior {
+        Some((pr, _)) => solve_with_prior(&jac, &y, &moved_names, pr)?.0,
+        None => solve(&jac, &y, &moved_names)?,
+    };
     est.params = moved.iter().map(|&k| layout.param(k)).collect();
     let series: Vec<usize> = rows.iter().map(|&m| s.series[m]).collect();
     let at: Vec<Instant> = rows.iter().map(|&m| s.instant(m)).collect();
-    let moved_cov = covariance(&jac, &r, &series, &at)?;
+    let moved_cov = covariance(
+        &jac,
+        &r,
+        &series,
+        &at,
+        moved_prior.as_ref().map(|(pr, s2)| (pr, *s2)),
+    )?;
     let mut cov = DMatrix::zeros(np, np);
     for (a, &ka) in moved.iter().enumerate() {
         for (b, &kb) in moved.iter().enumerate() {

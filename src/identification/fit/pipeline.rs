@@ -14,7 +14,8 @@ use crate::model::Robot;
 /// Identify the power model of `robot` from measured logs: states along `routes` (one for
 /// all logs, or one per log), known payloads through the base relations, the estimator
 /// chosen by cross-validation. Reads nothing but the logs. Errors: logs of another robot or
-/// joint count, rank-deficient data (naming the parameters), too little data.
+/// joint count, rank-deficient data without [`FitOptions::prior`] (naming the parameters),
+/// too little data.
 pub fn identify_logs(
     robot: &Robot,
     logs: &[crate::measurement::Log],
@@ -56,6 +57,10 @@ pub fn identify_logs(
         opts.folds,
         motor_power,
     )?;
+    let samples = match &opts.prior {
+        Some(prior) => samples.with_prior(prior.clone())?,
+        None => samples,
+    };
     let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
     if opts.consistent {
         let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));

@@ -44,7 +44,7 @@ pub(super) fn refit_losses(
         Weighting::None => vec![1.0; rows.len()],
         w => variance_weights(s, &rows, &z, w),
     };
-    levenberg_marquardt(s, &rows, &weights, Some(&free), &mut z)?;
+    levenberg_marquardt(s, &rows, &weights, Some(&free), None, &mut z)?;
     model.copper.copy_from_slice(z.rows(nb, n).as_slice());
     model.constant.fill(0.0);
     model.constant[0] = z[np - 1];

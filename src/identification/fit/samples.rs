@@ -2,14 +2,16 @@
 //! payload torques; per observation the measured power, its series and its
 //! cross-validation piece and fold.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 use super::layout::Layout;
 use crate::dynamics::Workspace;
 use crate::dynamics::regressor::regressor;
 use crate::error::{Error, Result};
 use crate::identification::data::Prepared;
+use crate::identification::lsq::ColumnPrior;
 use crate::identification::model::PowerModel;
+use crate::identification::prior::Prior;
 use crate::model::Robot;
 
 /// A cross-validation piece: one time block of one log.
@@ -74,6 +76,9 @@ pub struct Samples {
     pub(super) folds: usize,
     /// The signal cannot go negative.
     pub(super) clipped: bool,
+    /// Prior of the base parameters: pseudo-observations every fit adds to the samples'
+    /// (`None`: the data alone, a rank-deficient log refused).
+    pub(super) prior: Option<Prior>,
 }
 
 impl Samples {
@@ -151,6 +156,7 @@ impl Samples {
                 folds.max(2)
             },
             clipped: first.signal.clipped(),
+            prior: None,
         };
         let mut ws = Workspace::new(robot);
         let mut w = DMatrix::zeros(n, model.layout.len());
@@ -241,6 +247,38 @@ impl Samples {
             fold: vec![0; len],
             folds: 1,
             clipped: false,
+            prior: None,
+        })
+    }
+
+    /// The samples with `prior` on their base parameters: each fit is then the posterior
+    /// (the data decide the directions they determine, the prior the rest). Errors: a prior
+    /// of another base-parameter count.
+    pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
+        if prior.mean.len() != self.nb {
+            return Err(Error::InvalidInput(format!(
+                "prior of {} base parameters for a model of {}",
+                prior.mean.len(),
+                self.nb
+            )));
+        }
+        self.prior = Some(prior);
+        Ok(self)
+    }
+
+    /// The prior of the parameters `z` (zero columns for those without one), if any.
+    pub(super) fn z_prior(&self) -> Option<ColumnPrior> {
+        let prior = self.prior.as_ref()?;
+        let np = self.params();
+        Some(ColumnPrior {
+            root: DMatrix::from_fn(self.nb, np, |r, c| {
+                if c < self.nb {
+                    prior.root_precision[(r, c)]
+                } else {
+                    0.0
+                }
+            }),
+            mean: DVector::from_fn(np, |c, _| if c < self.nb { prior.mean[c] } else { 0.0 }),
         })
     }
 
