@@ -274,3 +274,98 @@ fn the_prior_does_not_pull_a_determined_parameter_from_the_truth() {
     assert!(dist_posterior <= dist_alone);
     assert!(d.directions * 2 > d.of, "{} of {}", d.directions, d.of);
 }
+
+/// `identify` on a log that moves joint 1 alone (the UR5's twin, 25 Hz, DC bus): a model with
+/// the prior, the report says how many directions the data determined and what would determine
+/// the rest, in text and `--json`; bad prior widths and the prior's options with a paper method
+/// are clear errors.
+#[test]
+fn identify_reports_what_the_data_determined() {
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    let (traj, data, model) = (
+        common::tmp("j1.csv"),
+        common::tmp("j1_run"),
+        common::tmp("j1_model.json"),
+    );
+    common::run_ok(&[
+        "excite",
+        "--robot",
+        UR5_URDF,
+        "--joints",
+        "1",
+        "--periods",
+        "1",
+        "--evals",
+        "100",
+        "--out",
+        &s(&traj),
+    ]);
+    common::run_ok(&[
+        "simulate",
+        "--robot",
+        UR5_URDF,
+        "--drive",
+        UR5_DRIVE,
+        "--trajectory",
+        &s(&traj),
+        "--sample-rate",
+        "25",
+        "--substeps",
+        "3",
+        "--format",
+        "csv",
+        "--out",
+        &s(&data),
+    ]);
+    let log = s(&data.join("measured.csv"));
+    let base = [
+        "identify",
+        "--robot",
+        UR5_URDF,
+        "--log",
+        &log,
+        "--power",
+        "bus",
+        "--out",
+        &s(&model),
+    ];
+    let (code, out, err) = common::run(&[&base[..], &["--drive", UR5_DRIVE, "--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let report: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let d = &report["determination"];
+    let (directions, of) = (d["directions"].as_u64().unwrap(), d["of"].as_u64().unwrap());
+    assert!(
+        directions > 0 && directions < of / 2,
+        "{directions} of {of}"
+    );
+    let joints: Vec<u64> = d["mostly_prior_joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    assert!(joints.contains(&6), "{joints:?}");
+    assert!(
+        err.contains(&format!(
+            "determined by the data: {directions} of {of} directions"
+        )) && err.contains("to determine them: add an excitation that moves joints"),
+        "{err}"
+    );
+    assert_eq!(report["model_path"].as_str(), Some(s(&model).as_str()));
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    assert_eq!(written["determination"]["directions"], d["directions"]);
+    for (bad, says) in [
+        (vec!["--prior-width", "mass=-1"], "must be finite and > 0"),
+        (vec!["--prior-width", "colour=1"], "unknown key 'colour'"),
+        (vec!["--prior-width", "mass"], "expected KEY=VALUE"),
+        (
+            vec!["--method", "energy", "--no-prior"],
+            "apply to --method auto",
+        ),
+    ] {
+        let (code, _, err) = common::run(&[&base[..], &bad[..]].concat());
+        assert_ne!(code, 0, "{bad:?}");
+        assert!(err.contains(says), "{bad:?}: {err}");
+    }
+}
