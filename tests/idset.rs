@@ -380,12 +380,12 @@ fn each_motors_power_determines_the_wrist_better_than_the_arms_alone() {
     // Asked for directly, the motors' power of a log without it is refused, naming the log.
     let prepared = [powertwin::identification::data::prepare(&bare[0], routes[0]).unwrap()];
     let template = PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
-    let err = Samples::new(&robot, &template, &prepared, 0.05, 5, true)
+    let err = Samples::new(&robot, &template, &prepared, 0.05, 0.0, 5, true)
         .err()
         .expect("no motor power")
         .to_string();
     assert!(err.contains("log 1 has no power of each motor"), "{err}");
-    assert!(Samples::new(&robot, &template, &prepared, 0.05, 5, false).is_ok());
+    assert!(Samples::new(&robot, &template, &prepared, 0.05, 0.0, 5, false).is_ok());
 }
 
 #[test]

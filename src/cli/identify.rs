@@ -161,6 +161,11 @@ pub struct IdentifyArgs {
     /// [default: 0.05 for auto, total and pmsm; 0 for the others].
     #[arg(long, value_name = "RAD_S")]
     min_speed: Option<f64>,
+    /// Fastest rate at which a log's states are fitted on, Hz: a faster log is fitted on every
+    /// k-th state (all still count in the cross-validation's energies); 0 fits every state
+    /// (slower, for --method auto, total and pmsm).
+    #[arg(long, value_name = "HZ", default_value_t = powertwin::identification::tuning::MAX_FIT_RATE_HZ)]
+    fit_rate: f64,
     /// Weighted least squares for --method auto, total and pmsm: `none` (ordinary),
     /// `per-log` weighs each log by the inverse of its residual variance, `power-level` each
     /// sample by the inverse of a variance growing with the predicted active power (both
@@ -405,6 +410,7 @@ fn identify_fitted(
             .map_or(FitOptions::default().weighting, Into::into),
         consistent: !args.unconstrained,
         motor_power: !args.arm_power_only,
+        max_fit_rate_hz: args.fit_rate,
         prior: prior.clone(),
         ..FitOptions::default()
     };

@@ -211,6 +211,34 @@ pub fn solve_with_prior(
             prior_rhs[i - r.nrows()]
         }
     });
+    let (values, covariance) = stacked_solution(&stacked, &rhs, s2, names, rank)?;
+    let std: Vec<f64> = (0..p).map(|c| covariance[(c, c)].max(0.0).sqrt()).collect();
+    let resid = a * DVector::from_column_slice(&values) - y;
+    let estimate = Estimate {
+        names: names.to_vec(),
+        rel_std: rel_std(&values, &std),
+        values,
+        std,
+        cond,
+        residual_rms: (resid.norm_squared() / m as f64).sqrt(),
+        rows: m,
+        covariance,
+        params: Vec::new(),
+    };
+    Ok((estimate, s2))
+}
+
+/// The least-squares solution of the stacked data-and-prior system `stacked x = rhs` and
+/// its covariance `s2 (stacked^T stacked)^-1`, columns scaled to unit norm. Errors: a column
+/// neither excited nor with a prior, or directions neither determines (`rank`: the data's).
+fn stacked_solution(
+    stacked: &DMatrix<f64>,
+    rhs: &DVector<f64>,
+    s2: f64,
+    names: &[String],
+    rank: usize,
+) -> Result<(Vec<f64>, DMatrix<f64>)> {
+    let p = stacked.ncols();
     let norms: Vec<f64> = stacked.column_iter().map(|c| c.norm()).collect();
     if let Some(c) = norms.iter().position(|n| *n == 0.0) {
         return Err(Error::RankDeficient {
@@ -221,13 +249,13 @@ pub fn solve_with_prior(
     }
     let scaled = DMatrix::from_fn(stacked.nrows(), p, |i, c| stacked[(i, c)] / norms[c]);
     let svd = scaled.svd(true, true);
-    let posterior_cond = svd.singular_values.max() / svd.singular_values.min();
-    if posterior_cond.is_nan() || posterior_cond > MAX_COND {
+    let cond = svd.singular_values.max() / svd.singular_values.min();
+    if cond.is_nan() || cond > MAX_COND {
         return Err(Error::RankDeficient {
             rank,
             cols: p,
             unidentifiable: format!(
-                "directions neither the data nor the prior determine (condition number {posterior_cond:.3e})"
+                "directions neither the data nor the prior determine (condition number {cond:.3e})"
             ),
         });
     }
@@ -246,20 +274,7 @@ pub fn solve_with_prior(
     let covariance = DMatrix::from_fn(p, p, |i, j| {
         s2 * inv_s.column(i).dot(&inv_s.column(j)) / (norms[i] * norms[j])
     });
-    let std: Vec<f64> = (0..p).map(|c| covariance[(c, c)].max(0.0).sqrt()).collect();
-    let resid = a * DVector::from_column_slice(&values) - y;
-    let estimate = Estimate {
-        names: names.to_vec(),
-        rel_std: rel_std(&values, &std),
-        values,
-        std,
-        cond,
-        residual_rms: (resid.norm_squared() / m as f64).sqrt(),
-        rows: m,
-        covariance,
-        params: Vec::new(),
-    };
-    Ok((estimate, s2))
+    Ok((values, covariance))
 }
 
 /// The data's own condition number, numerical rank and residual variance `s^2` (of their

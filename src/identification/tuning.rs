@@ -10,6 +10,13 @@ use crate::identification::fit::Weighting;
 /// shows the friction (docs/experiments.md#fit-options).
 pub const MIN_SPEED: f64 = 0.05;
 
+/// Fastest rate (Hz) at which a log's states are fitted on; a faster log is fitted on every
+/// `k`-th state, all of them counted in the cross-validated energies. Why 25: consecutive
+/// states of a faster log carry nearly the same information (their residuals are correlated
+/// over tens of milliseconds), and fitting on all of them cost identification time in
+/// proportion (docs/experiments.md#fit-rate).
+pub const MAX_FIT_RATE_HZ: f64 = 25.0;
+
 /// Contiguous time blocks each log is cut into for cross-validation (its folds when there are
 /// fewer than three logs). Why 5: enough held-out pieces for the structure error with blocks
 /// long enough to hold whole moves (docs/experiments.md#fit-options).

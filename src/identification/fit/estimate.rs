@@ -80,22 +80,12 @@ pub fn fit(
     Ok(held)
 }
 
-/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per row).
-/// Without `statistics` the fit's covariance is left zero and its estimate holds only the
-/// values (for a round of iterated weighting, which needs only the residuals).
-fn fit_weighted(
-    template: &PowerModel,
-    s: &Samples,
-    estimator: Estimator,
-    rows: &[usize],
-    weights: &[f64],
-    zero_copper: &[bool],
-    statistics: bool,
-) -> Result<Fit> {
+/// The linear problem without copper loss on the samples `rows` (weights `weights`):
+/// `y - dq . tau_known = (dq^T W_b) theta + P0` for the arm, `y - dq_i tau_known,i =
+/// (dq_i W_b,i) theta + P0_i` for motor `i`, rows times the square roots of the weights, the
+/// arm's clipped samples left out.
+fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
     let (n, nb, np) = (s.n, s.nb, s.params());
-    // Linear solution without copper loss: y - dq . tau_known = (dq^T W_b) theta + P0 for
-    // the arm, y - dq_i tau_known,i = (dq_i W_b,i) theta + P0_i for motor i (the arm's
-    // clipped samples out). Its columns are z's without the copper coefficients.
     let lin: Vec<(usize, f64)> = rows
         .iter()
         .zip(weights)
@@ -120,6 +110,35 @@ fn fit_weighted(
         a[(r, s.constant(m) - n)] = sw;
         y[r] = sw * (s.y[m] - joints.map(|i| v[i] * known[i]).sum::<f64>());
     }
+    LinearDesign { lin, to_z, a, y }
+}
+
+/// The linear problem of [`linear_design`].
+struct LinearDesign {
+    /// The rows used: sample and square root of its weight.
+    lin: Vec<(usize, f64)>,
+    /// Each column's index in `z` (all but the copper coefficients).
+    to_z: Vec<usize>,
+    /// The weighted design.
+    a: DMatrix<f64>,
+    /// The weighted observations.
+    y: DVector<f64>,
+}
+
+/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per row).
+/// Without `statistics` the fit's covariance is left zero and its estimate holds only the
+/// values (for a round of iterated weighting, which needs only the residuals).
+fn fit_weighted(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    rows: &[usize],
+    weights: &[f64],
+    zero_copper: &[bool],
+    statistics: bool,
+) -> Result<Fit> {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    let LinearDesign { lin, to_z, a, y } = linear_design(s, rows, weights);
     let layout = s.layout();
     let names = layout.names(&template.names);
     let names_lin: Vec<String> = to_z.iter().map(|&k| names[k].clone()).collect();

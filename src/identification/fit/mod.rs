@@ -156,6 +156,10 @@ pub struct FitOptions {
     /// (Coulomb sign and stiction around velocity reversals), except where the robot is held
     /// exactly still; they still count in the cross-validated energies.
     pub min_speed: f64,
+    /// Fastest rate (Hz) at which a log's states are fitted on: a faster log is fitted on
+    /// every `k`-th state (`k` whole), all of them still counted in the cross-validated
+    /// energies; 0: every state.
+    pub max_fit_rate_hz: f64,
     /// Contiguous time blocks each log is cut into: the energy pieces of cross-validation,
     /// and its folds when there are fewer than three logs.
     pub folds: usize,
@@ -185,6 +189,7 @@ impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
             min_speed: tuning::MIN_SPEED,
+            max_fit_rate_hz: tuning::MAX_FIT_RATE_HZ,
             folds: tuning::FOLDS,
             candidates: vec![Estimator::Total, Estimator::Pmsm],
             weighting: tuning::WEIGHTING,

@@ -35,6 +35,12 @@ pub fn identify_logs(
             opts.min_speed
         )));
     }
+    if !(opts.max_fit_rate_hz.is_finite() && opts.max_fit_rate_hz >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "fit rate {} Hz must be finite and >= 0 (0: every state)",
+            opts.max_fit_rate_hz
+        )));
+    }
     for log in logs {
         log.check_robot(robot)?;
     }
@@ -54,6 +60,7 @@ pub fn identify_logs(
         &template,
         &prepared,
         opts.min_speed,
+        opts.max_fit_rate_hz,
         opts.folds,
         motor_power,
     )?;

@@ -90,6 +90,9 @@ impl Samples {
     /// motion, centre and payload the fit did not see, as a prediction meets), else one block
     /// of every log.
     ///
+    /// `max_fit_rate_hz` (0: no limit): a log sampled faster is fitted on a whole-number
+    /// fraction of its states ([`FitOptions::max_fit_rate_hz`](super::FitOptions)).
+    ///
     /// `motor_power`: also observe each motor's logged power, `dq_i tau_i + c_i tau_i^2 +
     /// P0_i` with a standby `P0_i` of its own (the paper's eq. 13 with per-motor power: each
     /// joint's parameters seen in its own motor rather than under the larger joints' power).
@@ -103,6 +106,7 @@ impl Samples {
         model: &PowerModel,
         logs: &[Prepared],
         min_speed: f64,
+        max_fit_rate_hz: f64,
         folds: usize,
         motor_power: bool,
     ) -> Result<Samples> {
@@ -171,7 +175,7 @@ impl Samples {
                 )));
             }
             let spans = payload_spans(robot, model, base.as_ref(), p)?;
-            let fit = fitted(p, min_speed);
+            let fit = fitted(p, min_speed, max_fit_rate_hz);
             let len = p.states.len();
             let first_state = s.dq.len() / n;
             for m in 0..len {
@@ -388,8 +392,13 @@ fn payload_spans(
 
 /// Whether each state of log `p` is fitted on: every excited joint moves at least
 /// `min_speed` (rad/s), or the robot is held exactly still.
-fn fitted(p: &Prepared, min_speed: f64) -> Vec<bool> {
+///
+/// A log faster than `max_rate_hz` (0: no limit) is fitted on every `k`-th state only, `k` the
+/// whole number of its samples in `1 / max_rate_hz` (all still count in the cross-validated
+/// energies).
+fn fitted(p: &Prepared, min_speed: f64, max_rate_hz: f64) -> Vec<bool> {
     let len = p.states.len();
+    let stride = fit_stride(&p.states.t, max_rate_hz);
     let mut fit = vec![false; len];
     for m in p.states.moving(&p.excited, min_speed) {
         fit[m] = true;
@@ -398,6 +407,20 @@ fn fitted(p: &Prepared, min_speed: f64) -> Vec<bool> {
     // power is the standby plus the copper loss of holding the pose, which pins the constant.
     for (m, f) in fit.iter_mut().enumerate() {
         *f |= p.states.dq.iter().all(|v| v[m] == 0.0) && p.states.ddq.iter().all(|a| a[m] == 0.0);
+        *f &= m % stride == 0;
     }
     fit
+}
+
+/// Every how many states a log sampled at times `t` (s) is fitted on to stay within
+/// `max_rate_hz` (1 for a slower log, or no limit at 0).
+fn fit_stride(t: &[f64], max_rate_hz: f64) -> usize {
+    let (Some(first), Some(last)) = (t.first(), t.last()) else {
+        return 1;
+    };
+    if max_rate_hz <= 0.0 || t.len() < 2 || last <= first {
+        return 1;
+    }
+    let rate = (t.len() - 1) as f64 / (last - first);
+    ((rate / max_rate_hz + 1e-9).floor() as usize).max(1)
 }
