@@ -9,7 +9,9 @@ use clap::Args;
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::model::drive::Brakes;
 use powertwin::optimize::placement::{self, PlacementSearch, SearchBox};
-use powertwin::optimize::priced::{PlanEnergies, PlanEnergy, PlanSaving};
+use powertwin::optimize::priced::{
+    PlanEnergies, PlanEnergy, PlanSaving, ScheduledSegment, scheduled_segments,
+};
 use powertwin::optimize::schedule::Schedule;
 use powertwin::optimize::segment::Task;
 use powertwin::optimize::{self, CycleBound, FrontPoint, Optimized, Options, UniformPoint};
@@ -85,21 +87,6 @@ pub struct OptimizeArgs {
     viz: crate::cli::viz::VizArgs,
 }
 
-/// One segment of `plan.json`.
-#[derive(Serialize)]
-struct SegmentOut {
-    from: String,
-    to: String,
-    speed_m_s: f64,
-    accel_m_s2: f64,
-    duration_s: f64,
-    #[serde(rename = "predicted_J")]
-    predicted_j: f64,
-    slowed_for_joint_limit: bool,
-    dwell_s: f64,
-    dwell_mode: &'static str,
-}
-
 /// `plan.json`.
 #[derive(Serialize)]
 struct PlanFile<'a> {
@@ -108,7 +95,7 @@ struct PlanFile<'a> {
     reference_speed_m_s: f64,
     cycle_time_bound_s: f64,
     uniform: &'a UniformPoint,
-    segments: Vec<SegmentOut>,
+    segments: Vec<ScheduledSegment>,
     cycle_time_s: f64,
     #[serde(rename = "predicted_J")]
     predicted_j: f64,
@@ -372,7 +359,7 @@ fn write_outputs(args: &OptimizeArgs, scenario: &Scenario, out: &Outcome) -> Res
         reference_speed_m_s: args.speed,
         cycle_time_bound_s: found.bound_s,
         uniform: &found.uniform,
-        segments: segments_out(scenario, found),
+        segments: scheduled_segments(scenario.path(), &found.schedule),
         cycle_time_s: found.schedule.cycle_time_s,
         predicted_j: optimised.predicted_j,
         predicted_saving_pct: saving.predicted_saving_pct,
@@ -506,34 +493,6 @@ fn timing_note(found: &Optimized, timing_saving: f64) -> String {
         "note: the timing saves under 1 % ({timing_saving:+.1} %): {what}.{front} A placement \
          search (--search-offset) may save more."
     )
-}
-
-/// The chosen timing per segment for plan.json.
-fn segments_out(scenario: &Scenario, found: &Optimized) -> Vec<SegmentOut> {
-    let path = scenario.path();
-    let s = &found.schedule;
-    s.segments
-        .iter()
-        .enumerate()
-        .map(|(k, c)| {
-            let waits = k == s.wait.after_segment && s.wait.duration_s > 0.0;
-            SegmentOut {
-                from: path[k].clone(),
-                to: path[k + 1].clone(),
-                speed_m_s: c.speed_m_s,
-                accel_m_s2: c.accel_m_s2,
-                duration_s: c.duration_s,
-                predicted_j: c.energy_j,
-                slowed_for_joint_limit: c.slowed,
-                dwell_s: if waits { s.wait.duration_s } else { 0.0 },
-                dwell_mode: match (waits, s.wait.mode) {
-                    (false, _) => "none",
-                    (true, optimize::schedule::WaitMode::Hold) => "hold",
-                    (true, optimize::schedule::WaitMode::Brakes) => "brakes",
-                },
-            }
-        })
-        .collect()
 }
 
 /// The text summary; under the twin's statement unless the twin is the input's.

@@ -1,5 +1,5 @@
-//! What an optimisation reports of its plans: the model's price of each, and the twin's
-//! energy when a twin checked it ([`crate::validation::optimized::check`]); with no twin
+//! What an optimisation reports of its plans: the chosen timing per segment, the model's
+//! price of each plan, and the twin's energy when a twin checked it ([`crate::validation::optimized::check`]); with no twin
 //! (`optimize --twin none`) the plans are priced by the model alone, as the twin check prices
 //! them.
 
@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::error::Result;
 use crate::model::drive::Brakes;
-use crate::optimize::schedule::WaitPrices;
+use crate::optimize::schedule::{Schedule, WaitMode, WaitPrices};
 use crate::optimize::segment::Task;
 use crate::optimize::{Optimized, plan_schedule, predict_run};
 use crate::validation::optimized::{Candidate, Checked, PlanCheck};
@@ -147,4 +147,58 @@ impl PlanEnergies {
             .collect::<Result<_>>()?;
         Ok(PlanEnergies { uniform, plans })
     }
+}
+
+/// One segment of a schedule, named by its via points.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScheduledSegment {
+    /// Via point the segment starts at.
+    pub from: String,
+    /// Via point it ends at.
+    pub to: String,
+    /// Commanded TCP speed, m/s.
+    pub speed_m_s: f64,
+    /// TCP acceleration bound, m/s^2.
+    pub accel_m_s2: f64,
+    /// Duration of the move, s.
+    pub duration_s: f64,
+    /// Predicted energy of the move, J (the model's signal).
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Whether the planner slowed the move for a joint limit.
+    pub slowed_for_joint_limit: bool,
+    /// The wait at its end, s (0 but at the schedule's wait).
+    pub dwell_s: f64,
+    /// How the arm waits there: `none`, `hold` (servos) or `brakes`.
+    pub dwell_mode: &'static str,
+}
+
+/// The segments of `schedule` with the via points of `path` (the scenario's path: one more
+/// name than segments) and the wait at the end of its segment.
+pub fn scheduled_segments(path: &[String], schedule: &Schedule) -> Vec<ScheduledSegment> {
+    let wait = &schedule.wait;
+    schedule
+        .segments
+        .iter()
+        .zip(path.windows(2))
+        .enumerate()
+        .map(|(k, (c, ends))| {
+            let waits = k == wait.after_segment && wait.duration_s > 0.0;
+            ScheduledSegment {
+                from: ends[0].clone(),
+                to: ends[1].clone(),
+                speed_m_s: c.speed_m_s,
+                accel_m_s2: c.accel_m_s2,
+                duration_s: c.duration_s,
+                predicted_j: c.energy_j,
+                slowed_for_joint_limit: c.slowed,
+                dwell_s: if waits { wait.duration_s } else { 0.0 },
+                dwell_mode: match (waits, wait.mode) {
+                    (false, _) => "none",
+                    (true, WaitMode::Hold) => "hold",
+                    (true, WaitMode::Brakes) => "brakes",
+                },
+            }
+        })
+        .collect()
 }
