@@ -164,30 +164,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         &bars,
     )?;
     bars.finish();
-    let names: Vec<(String, &powertwin::dataset::Dataset)> = result
-        .cells
-        .iter()
-        .zip(&result.datasets)
-        .map(|(c, d)| (sweep_name(c), d))
-        .collect();
-    write_all(&names, &args.out, args.twin.format)?;
-    let file = SweepFile {
-        scenario: &scenario.name,
-        twin: args.twin_choice.name(),
-        twin_note: args.twin_choice.statement(),
-        cells: &result.cells,
-        optima: &result.optima,
-        pareto: &result.pareto,
-    };
-    let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
-    powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
-    write_chart(
-        &energy_chart(&result),
-        &args.out,
-        "energy_vs_speed",
-        960,
-        600,
-    )?;
+    let json = write_outputs(args, &scenario, &result)?;
     #[cfg(feature = "viz")]
     if let Some(viz) = &viz {
         viz.log_sweep(
@@ -210,6 +187,36 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         text + &table(&result)
     })?;
     Ok(args.overload.exit_for(&result.cells).into())
+}
+
+/// Write the cells' datasets, sweep.json and the chart under `--out`; returns sweep.json's
+/// text.
+fn write_outputs(args: &SweepArgs, scenario: &Scenario, result: &Sweep) -> Result<String> {
+    let names: Vec<(String, &powertwin::dataset::Dataset)> = result
+        .cells
+        .iter()
+        .zip(&result.datasets)
+        .map(|(c, d)| (sweep_name(c), d))
+        .collect();
+    write_all(&names, &args.out, args.twin.format)?;
+    let file = SweepFile {
+        scenario: &scenario.name,
+        twin: args.twin_choice.name(),
+        twin_note: args.twin_choice.statement(),
+        cells: &result.cells,
+        optima: &result.optima,
+        pareto: &result.pareto,
+    };
+    let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
+    powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
+    write_chart(
+        &energy_chart(result),
+        &args.out,
+        "energy_vs_speed",
+        960,
+        600,
+    )?;
+    Ok(json)
 }
 
 /// `--twin none`: price every planned cell with `model` alone; write sweep.json and the
