@@ -5,14 +5,17 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
+use powertwin::measurement::PowerSignal;
 use powertwin::report::figures::energy_chart;
-use powertwin::report::plot::write_chart;
+use powertwin::report::plot::{Chart, Series, Style, XAxis, write_chart};
 use powertwin::trajectory::task::Scenario;
-use powertwin::validation::sweep::{self, Sweep};
+use powertwin::validation::sweep::{self, NO_PHYSICS_CHECK, PredictedSweep, Sweep, TwinChoice};
 use serde::Serialize;
 
+use crate::cli::export::identified_twin;
 use crate::cli::progress::Bars;
-use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all};
+use crate::cli::{OverloadArgs, Setup, TwinArgs, emit, read_model, sweep_name, write_all};
 
 /// Arguments of `sweep`.
 ///
@@ -20,7 +23,8 @@ use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all
 /// load = L), runs the twin on each in parallel and writes one dataset per cell, sweep.json
 /// (cells, energy-optimal speed per load, Pareto front) and energy_vs_speed.svg/.png under
 /// --out. With --model, the identified model (from `identify`) predicts every cell from the
-/// plan and the known tool and loads.
+/// plan and the known tool and loads. --twin chooses the twin (see below); with --twin none
+/// no twin runs: sweep.json has no simulated columns and no dataset is written.
 ///
 /// Exits 3 (after writing every output) when a cell is flagged: a torque saturated or the
 /// tracking error exceeded 0.05 rad, so its energy is not the task's; --allow-overload
@@ -29,11 +33,26 @@ use crate::cli::{OverloadArgs, TwinArgs, emit, read_model, sweep_name, write_all
 pub struct SweepArgs {
     #[command(flatten)]
     twin: TwinArgs,
+    /// Which twin runs the cells: `urdf` (the twin of --robot and --drive), `identified` (the
+    /// twin of --model's consistent URDF and drive file, as `identify --export-urdf
+    /// --export-drive` writes them) or `none` (no physics: the model's predictions with their
+    /// 95 % intervals). `none` and `identified` need --model; for a robot that is not our twin
+    /// they are the honest choice.
+    #[arg(
+        long = "twin",
+        value_name = "urdf|none|identified",
+        default_value = "urdf"
+    )]
+    twin_choice: TwinChoice,
     /// Scenario TOML [default: built-in scenarios/pick_and_place.toml].
     #[arg(long, value_name = "PATH")]
     scenario: Option<PathBuf>,
     /// Identified model (`identify --out`) to predict each cell with.
-    #[arg(long, value_name = "MODEL.json")]
+    #[arg(
+        long,
+        value_name = "MODEL.json",
+        required_if_eq_any([("twin_choice", "none"), ("twin_choice", "identified")])
+    )]
     model: Option<PathBuf>,
     /// TCP speeds, m/s, replacing the scenario's (comma-separated).
     #[arg(long, value_name = "M_S,...", value_delimiter = ',')]
@@ -58,13 +77,27 @@ pub struct SweepArgs {
 #[derive(Serialize)]
 struct SweepFile<'a> {
     scenario: &'a str,
+    twin: &'static str,
+    twin_note: &'static str,
     cells: &'a [sweep::Cell],
     optima: &'a [sweep::Optimum],
     pareto: &'a [usize],
 }
 
-/// Run the sweep.
-pub fn run(args: &SweepArgs) -> Result<ExitCode> {
+/// `sweep.json` of `--twin none`: the model's predictions only.
+#[derive(Serialize)]
+struct PredictedFile<'a> {
+    scenario: &'a str,
+    twin: &'static str,
+    twin_note: &'static str,
+    power_signal: PowerSignal,
+    cells: &'a [sweep::PredictedCell],
+    optima: &'a [sweep::PredictedOptimum],
+    pareto: &'a [usize],
+}
+
+/// The robot setup, the scenario with the command line's speeds and loads, and the model.
+fn load(args: &SweepArgs) -> Result<(Setup, Scenario, Option<PowerModel>)> {
     let setup = args.twin.setup()?;
     if setup.payload.is_some() {
         bail!("--payload does not apply to a sweep: the scenario defines the tool and loads");
@@ -91,12 +124,38 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         .as_deref()
         .map(|p| read_model(p, &setup.robot))
         .transpose()?;
-    let rig = setup.rig();
+    Ok((setup, scenario, model))
+}
+
+/// Run the sweep.
+pub fn run(args: &SweepArgs) -> Result<ExitCode> {
+    let (setup, scenario, model) = load(args)?;
     let planned = sweep::plan(&setup.robot, &scenario)?;
+    let needs_model = || {
+        model
+            .as_ref()
+            .with_context(|| format!("--twin {} needs --model", args.twin_choice.name()))
+    };
+    let identified = match args.twin_choice {
+        TwinChoice::None => {
+            return run_predicted(args, &setup.robot, &scenario, planned, needs_model()?);
+        }
+        TwinChoice::Identified => Some(identified_twin(
+            &setup.robot,
+            needs_model()?,
+            setup.drive.brakes(),
+        )?),
+        TwinChoice::Urdf => None,
+    };
+    let input = setup.rig();
+    let rig = match &identified {
+        Some(t) => sweep::identified_rig(t, &input),
+        None => input,
+    };
     #[cfg(feature = "viz")]
     let viz = args.viz.open(None)?;
     let bars = Bars::new();
-    let efficiency = powertwin::identification::model::DATASHEET_EFFICIENCY;
+    let efficiency = DATASHEET_EFFICIENCY;
     let result = sweep::run(
         &rig,
         &scenario,
@@ -105,28 +164,7 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         &bars,
     )?;
     bars.finish();
-    let names: Vec<(String, &powertwin::dataset::Dataset)> = result
-        .cells
-        .iter()
-        .zip(&result.datasets)
-        .map(|(c, d)| (sweep_name(c), d))
-        .collect();
-    write_all(&names, &args.out, args.twin.format)?;
-    let file = SweepFile {
-        scenario: &scenario.name,
-        cells: &result.cells,
-        optima: &result.optima,
-        pareto: &result.pareto,
-    };
-    let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
-    powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
-    write_chart(
-        &energy_chart(&result),
-        &args.out,
-        "energy_vs_speed",
-        960,
-        600,
-    )?;
+    let json = write_outputs(args, &scenario, &result)?;
     #[cfg(feature = "viz")]
     if let Some(viz) = &viz {
         viz.log_sweep(
@@ -139,12 +177,161 @@ pub fn run(args: &SweepArgs) -> Result<ExitCode> {
         )?;
         viz.flush()?;
     }
+    let mut text = String::new();
+    if args.twin_choice != TwinChoice::Urdf {
+        outln!(text, "{}", args.twin_choice.statement());
+    }
     emit(&if args.json {
         json + "\n"
     } else {
-        table(&result)
+        text + &table(&result)
     })?;
     Ok(args.overload.exit_for(&result.cells).into())
+}
+
+/// Write the cells' datasets, sweep.json and the chart under `--out`; returns sweep.json's
+/// text.
+fn write_outputs(args: &SweepArgs, scenario: &Scenario, result: &Sweep) -> Result<String> {
+    let names: Vec<(String, &powertwin::dataset::Dataset)> = result
+        .cells
+        .iter()
+        .zip(&result.datasets)
+        .map(|(c, d)| (sweep_name(c), d))
+        .collect();
+    write_all(&names, &args.out, args.twin.format)?;
+    let file = SweepFile {
+        scenario: &scenario.name,
+        twin: args.twin_choice.name(),
+        twin_note: args.twin_choice.statement(),
+        cells: &result.cells,
+        optima: &result.optima,
+        pareto: &result.pareto,
+    };
+    let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
+    powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
+    write_chart(
+        &energy_chart(result),
+        &args.out,
+        "energy_vs_speed",
+        960,
+        600,
+    )?;
+    Ok(json)
+}
+
+/// `--twin none`: price every planned cell with `model` alone; write sweep.json and the
+/// chart of the predicted energies (no datasets).
+fn run_predicted(
+    args: &SweepArgs,
+    robot: &powertwin::Robot,
+    scenario: &Scenario,
+    planned: Vec<sweep::Planned>,
+    model: &PowerModel,
+) -> Result<ExitCode> {
+    #[cfg(feature = "viz")]
+    if args.viz.open(None)?.is_some() {
+        bail!("--twin none runs no twin: there is nothing to show in Rerun");
+    }
+    let result = sweep::predict(robot, scenario, planned, (model, DATASHEET_EFFICIENCY))?;
+    let file = PredictedFile {
+        scenario: &scenario.name,
+        twin: TwinChoice::None.name(),
+        twin_note: NO_PHYSICS_CHECK,
+        power_signal: model.signal,
+        cells: &result.cells,
+        optima: &result.optima,
+        pareto: &result.pareto,
+    };
+    let json = serde_json::to_string_pretty(&file).context("serialising sweep.json")?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    powertwin::io::write_atomic(&args.out.join("sweep.json"), json.as_bytes())?;
+    write_chart(
+        &predicted_chart(&result),
+        &args.out,
+        "energy_vs_speed",
+        960,
+        600,
+    )?;
+    emit(&if args.json {
+        json + "\n"
+    } else {
+        predicted_table(&result)
+    })?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The predicted energy of the model's signal per cycle against speed, one line per load
+/// (`--twin none`).
+fn predicted_chart(result: &PredictedSweep) -> Chart {
+    let mut chart = Chart::new(
+        "Predicted energy per cycle against TCP speed (model only, no physics check)",
+        "TCP speed (m/s)",
+        "Predicted energy per cycle, the model's signal (J)",
+    )
+    .with_x_axis(XAxis::Log);
+    for load in sweep::distinct(&result.cells, |c| c.load_kg) {
+        let points = result
+            .cells
+            .iter()
+            .filter(|c| c.load_kg == load)
+            .map(|c| (c.speed_m_s, c.predicted_signal_j))
+            .collect();
+        chart = chart.with_series(Series::new(
+            format!("model, load {load} kg"),
+            points,
+            Style::LineMarkers,
+        ));
+    }
+    chart
+}
+
+/// The predicted cells as a text table, under [`NO_PHYSICS_CHECK`] (`--twin none`).
+fn predicted_table(result: &PredictedSweep) -> String {
+    let mut o = String::new();
+    outln!(o, "{NO_PHYSICS_CHECK}");
+    outln!(
+        o,
+        "speed_m_s  load_kg  cycle_time_s  predicted_J  predicted_grid_J  signal_J  interval_95_J  slowed_segments"
+    );
+    for c in &result.cells {
+        outln!(
+            o,
+            "{:9}  {:7}  {:12.3}  {:11.2}  {:16.2}  {:8.2}  {:13.2}  {}",
+            c.speed_m_s,
+            c.load_kg,
+            c.cycle_time_s,
+            c.predicted_j,
+            c.predicted_grid_j,
+            c.predicted_signal_j,
+            c.interval_j,
+            c.slowed.len()
+        );
+    }
+    for opt in &result.optima {
+        let g = &opt.grid;
+        outln!(
+            o,
+            "load {} kg: least predicted energy at {} m/s ({}); model optimum {:.3} m/s{}",
+            opt.load_kg,
+            g.cell_m_s,
+            if g.interior {
+                format!("interior; interpolated {:.3} m/s", g.interpolated_m_s)
+            } else {
+                "at the edge of the grid".into()
+            },
+            opt.predicted.speed_m_s,
+            if opt.predicted.on_planner_limit {
+                format!(
+                    " (on a planner limit: {} segments slowed for joint limits)",
+                    opt.predicted.slowed_segments
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
+    o
 }
 
 /// The cells as a text table.

@@ -7,12 +7,14 @@
 //!   bound, by an exact dynamic programme; the least energy at every cycle time.
 //! * [`placement`]: where in the workspace the same task costs least.
 //! * [`speed`]: the least energy on a uniform-speed sweep's actual (kinked) curve.
+//! * [`priced`]: the plans' energies as reported, with the twin's or from the model alone.
 //!
 //! [`optimize`] runs the first two against the user's uniform-speed plan. Only the model and
 //! data-sheet values price a plan; the twin checks the result
 //! ([`crate::validation::optimized`]).
 
 pub mod placement;
+pub mod priced;
 pub mod schedule;
 pub mod segment;
 pub mod speed;

@@ -1,13 +1,18 @@
 //! Figure 14: the pick-and-place task over a speed x load grid on the twin, against the
 //! energy an identified model predicts from the plan alone; the energy-optimal speed per load
-//! and the energy / cycle-time trade-off.
+//! and the energy / cycle-time trade-off. [`TwinChoice`] says which twin checks the cells:
+//! the one of the input URDF and drive file ([`run`]), the identified model's own
+//! ([`crate::identification::consistent::IdentifiedTwin::from_model`], also [`run`]), or none
+//! ([`predict`]: the model's predictions alone).
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::identification::consistent::IdentifiedTwin;
 use crate::identification::model::PowerModel;
+use crate::identification::plan::PLAN_DT_S;
 use crate::model::Robot;
 use crate::optimize::segment::Task;
 use crate::optimize::speed::{self, SpeedOptimum};
@@ -30,6 +35,76 @@ pub fn run_flagged(report: &crate::twin::RunReport) -> bool {
     !report.torque_limit_hits.is_empty()
         || report.max_tracking_error_rad.is_nan()
         || report.max_tracking_error_rad > TRACKING_ERROR_BOUND_RAD
+}
+
+/// Which twin checks a plan's energy (`sweep --twin`, `optimize --twin`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TwinChoice {
+    /// The Rapier twin of the input URDF and drive file.
+    #[default]
+    Urdf,
+    /// No twin: every plan is priced by the model alone ([`NO_PHYSICS_CHECK`]).
+    None,
+    /// The Rapier twin of the identified model's exported URDF and drive file
+    /// ([`crate::identification::consistent::IdentifiedTwin::from_model`]).
+    Identified,
+}
+
+/// What a result without a twin run says of itself.
+pub const NO_PHYSICS_CHECK: &str = "no physics check ran (--twin none): energies are the model's predictions with their 95 % intervals";
+
+impl TwinChoice {
+    /// The name of the choice (`urdf`, `none`, `identified`), as in the results files.
+    pub fn name(self) -> &'static str {
+        match self {
+            TwinChoice::Urdf => "urdf",
+            TwinChoice::None => "none",
+            TwinChoice::Identified => "identified",
+        }
+    }
+
+    /// One line that says which twin ran: the input's, the identified model's, or
+    /// [`NO_PHYSICS_CHECK`].
+    pub fn statement(self) -> &'static str {
+        match self {
+            TwinChoice::Urdf => {
+                "twin: the Rapier twin of the input URDF and drive file (--twin urdf)"
+            }
+            TwinChoice::None => NO_PHYSICS_CHECK,
+            TwinChoice::Identified => {
+                "twin: the Rapier twin of the identified model's consistent URDF and drive file (--twin identified)"
+            }
+        }
+    }
+}
+
+impl std::str::FromStr for TwinChoice {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "urdf" => Ok(TwinChoice::Urdf),
+            "none" => Ok(TwinChoice::None),
+            "identified" => Ok(TwinChoice::Identified),
+            other => Err(Error::InvalidInput(format!(
+                "unknown twin '{other}' (expected urdf, none or identified)"
+            ))),
+        }
+    }
+}
+
+/// The rig of the identified model's twin ([`TwinChoice::Identified`]): `twin`'s robot and
+/// drives (its URDF text recorded in the datasets) with the physics, controller and logger
+/// settings of `rig`.
+pub fn identified_rig<'a>(twin: &'a IdentifiedTwin, rig: &Rig) -> Rig<'a> {
+    Rig {
+        robot: &twin.robot,
+        urdf: crate::dataset::meta::Urdf::inline(&twin.urdf()),
+        drive: &twin.drive,
+        twin: rig.twin.clone(),
+        sensor: rig.sensor,
+    }
 }
 
 /// One cell of the grid.
@@ -204,11 +279,7 @@ pub fn run(
     let robot = rig.robot;
     progress.stage("Figure 14: speed x load sweep", plans.len());
     let dt = rig.twin.physics.dt;
-    let speeds: Vec<f64> = plans.iter().map(|p| p.speed).collect();
-    let (lo, hi) = (
-        speeds.iter().cloned().fold(f64::INFINITY, f64::min),
-        speeds.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
-    );
+    let (lo, hi) = speed_range(&plans);
     let loads = distinct(&plans, |p| p.load);
     let mut order: Vec<(usize, Planned)> = plans.into_iter().enumerate().collect();
     order.sort_by(|a, b| {
@@ -266,27 +337,13 @@ pub fn run(
         ))
     };
     // The model's least-energy speed of every load, searched while the twin runs.
-    let least = || -> Result<Vec<Option<SpeedOptimum>>> {
-        let Some((model, efficiency)) = predictor else {
-            return Ok(vec![None; loads.len()]);
-        };
-        let tasks: Vec<Task> = loads
-            .iter()
-            .map(|&load_kg| Task {
-                robot,
-                scenario,
-                load_kg,
-                model,
-                efficiency,
-            })
-            .collect();
-        Ok(speed::least_energy(&tasks, lo, hi)?
-            .into_iter()
-            .map(Some)
-            .collect())
+    let least = || match predictor {
+        Some(p) => least_energy(robot, scenario, &loads, p, (lo, hi))
+            .map(|v| v.into_iter().map(Some).collect()),
+        None => Ok(vec![None; loads.len()]),
     };
     // `par_bridge` hands the runs out in the order given: longest first.
-    let (out, predicted) = rayon::join(
+    let (out, predicted): (_, Result<Vec<Option<SpeedOptimum>>>) = rayon::join(
         || {
             order
                 .into_iter()
@@ -322,6 +379,158 @@ pub fn run(
     })
 }
 
+/// The least and the greatest speed of the planned cells, m/s.
+fn speed_range(plans: &[Planned]) -> (f64, f64) {
+    let speeds = plans.iter().map(|p| p.speed);
+    (
+        speeds.clone().fold(f64::INFINITY, f64::min),
+        speeds.fold(f64::NEG_INFINITY, f64::max),
+    )
+}
+
+/// The model's least-energy speed in `range` (m/s) of every load level of `loads` (kg).
+fn least_energy(
+    robot: &Robot,
+    scenario: &Scenario,
+    loads: &[f64],
+    (model, efficiency): Predictor,
+    (lo, hi): (f64, f64),
+) -> Result<Vec<SpeedOptimum>> {
+    let tasks: Vec<Task> = loads
+        .iter()
+        .map(|&load_kg| Task {
+            robot,
+            scenario,
+            load_kg,
+            model,
+            efficiency,
+        })
+        .collect();
+    speed::least_energy(&tasks, lo, hi)
+}
+
+/// One cell of a sweep that no twin ran (`--twin none`): the model's prediction alone.
+#[derive(Debug, Clone, Serialize)]
+pub struct PredictedCell {
+    /// Commanded TCP speed, m/s.
+    pub speed_m_s: f64,
+    /// Load level L, kg.
+    pub load_kg: f64,
+    /// Duration of the whole path, s.
+    pub cycle_time_s: f64,
+    /// Motor energy the model predicts (regenerated energy counted negative), J.
+    #[serde(rename = "predicted_J")]
+    pub predicted_j: f64,
+    /// Grid-side energy the model predicts (`max(P, 0)`), J.
+    #[serde(rename = "predicted_grid_J")]
+    pub predicted_grid_j: f64,
+    /// Energy of the model's own signal, J: `predicted_J` for a model of the motor sum,
+    /// `predicted_grid_J` for one of the DC bus (clipped at zero); what `predict --scenario`
+    /// prices for the same cell.
+    #[serde(rename = "predicted_signal_J")]
+    pub predicted_signal_j: f64,
+    /// Half-width of the 95 % interval of `predicted_signal_J`, J.
+    #[serde(rename = "interval_95_J")]
+    pub interval_j: f64,
+    /// Segments the planner slowed down to respect joint limits.
+    pub slowed: Vec<SlowedSegment>,
+}
+
+/// The energy-optimal speed of one load level of a sweep that no twin ran.
+#[derive(Debug, Clone, Serialize)]
+pub struct PredictedOptimum {
+    /// Load level, kg.
+    pub load_kg: f64,
+    /// The grid cell of least predicted energy of the model's signal (`predicted_signal_J`,
+    /// the energy the model is identified for and the optimiser minimises).
+    pub grid: RowOptimum,
+    /// The model's least-energy speed on its actual curve ([`crate::optimize::speed`]).
+    pub predicted: SpeedOptimum,
+}
+
+/// Outcome of a sweep that no twin ran ([`predict`]).
+pub struct PredictedSweep {
+    /// Cells, load-major in the scenario's order.
+    pub cells: Vec<PredictedCell>,
+    /// Optimum per load.
+    pub optima: Vec<PredictedOptimum>,
+    /// Indices into `cells` of the per-load Pareto front of (cycle time, predicted energy of
+    /// the model's signal).
+    pub pareto: Vec<usize>,
+    /// Each cell's plan.
+    pub plans: Vec<TaskRun>,
+}
+
+/// Price the planned cells with the model alone, in parallel (no twin runs: `--twin none`):
+/// each cell as [`PowerModel::predict`] prices it at the step [`PLAN_DT_S`] (the energy
+/// `predict --scenario` gives for the same cell, with its 95 % interval), and each load's
+/// least-energy speed searched as [`run`] does.
+///
+/// Errors: a prediction or a speed search that fails.
+pub fn predict(
+    robot: &Robot,
+    scenario: &Scenario,
+    plans: Vec<Planned>,
+    predictor: Predictor,
+) -> Result<PredictedSweep> {
+    let (model, efficiency) = predictor;
+    let range = speed_range(&plans);
+    let loads = distinct(&plans, |p| p.load);
+    let (cells, least) = rayon::join(
+        || {
+            plans
+                .par_iter()
+                .map(|Planned { speed, load, plan }| {
+                    let traj = &plan.motion.trajectory;
+                    let p = model.predict(robot, traj, &plan.events, efficiency, PLAN_DT_S)?;
+                    Ok(PredictedCell {
+                        speed_m_s: *speed,
+                        load_kg: *load,
+                        cycle_time_s: plan.motion.duration_s,
+                        predicted_j: p.motor_j,
+                        predicted_grid_j: p.grid_j,
+                        predicted_signal_j: p.energy_j,
+                        interval_j: p.interval_j,
+                        slowed: plan.motion.slowed.clone(),
+                    })
+                })
+                .collect::<Result<Vec<_>>>()
+        },
+        || least_energy(robot, scenario, &loads, predictor, range),
+    );
+    let cells = cells?;
+    let optima = loads
+        .iter()
+        .zip(least?)
+        .map(|(&load_kg, predicted)| {
+            let row = cells
+                .iter()
+                .filter(|c| c.load_kg == load_kg)
+                .map(|c| (c.speed_m_s, c.predicted_signal_j, &c.slowed[..]))
+                .collect();
+            let grid = row_optimum(row)
+                .ok_or_else(|| Error::InvalidInput(format!("no cell with load {load_kg} kg")))?;
+            Ok(PredictedOptimum {
+                load_kg,
+                grid,
+                predicted,
+            })
+        })
+        .collect::<Result<_>>()?;
+    let pareto = pareto_of(
+        &cells
+            .iter()
+            .map(|c| (c.load_kg, c.cycle_time_s, c.predicted_signal_j))
+            .collect::<Vec<_>>(),
+    );
+    Ok(PredictedSweep {
+        cells,
+        optima,
+        pareto,
+        plans: plans.into_iter().map(|p| p.plan).collect(),
+    })
+}
+
 /// The distinct values of `key` over `items` (e.g. the load levels of the cells), in order of
 /// first appearance.
 pub fn distinct<T>(items: &[T], key: impl Fn(&T) -> f64) -> Vec<f64> {
@@ -336,31 +545,62 @@ pub fn distinct<T>(items: &[T], key: impl Fn(&T) -> f64) -> Vec<f64> {
 
 /// The optimum of one load level, with the model's least-energy speed when there is one.
 fn optimum(cells: &[Cell], load: f64, predicted: Option<SpeedOptimum>) -> Result<Optimum> {
-    let mut row: Vec<&Cell> = cells.iter().filter(|c| c.load_kg == load).collect();
-    row.sort_by(|a, b| a.speed_m_s.total_cmp(&b.speed_m_s));
-    let best = (0..row.len())
-        .min_by(|&a, &b| row[a].simulated_j.total_cmp(&row[b].simulated_j))
+    let row: Vec<RowPoint> = cells
+        .iter()
+        .filter(|c| c.load_kg == load)
+        .map(|c| (c.speed_m_s, c.simulated_j, &c.slowed[..]))
+        .collect();
+    let best = row_optimum(row)
         .ok_or_else(|| Error::InvalidInput(format!("no cell with load {load} kg")))?;
-    let interior = best > 0 && best + 1 < row.len();
-    let slowed = |k: usize| row[k].slowed.iter().map(|s| s.segment).collect::<Vec<_>>();
-    let smooth = interior && slowed(best - 1) == slowed(best) && slowed(best + 1) == slowed(best);
-    let simulated_interpolated_m_s = if smooth {
-        let x: Vec<f64> = (best - 1..=best + 1)
-            .map(|k| row[k].speed_m_s.ln())
-            .collect();
-        let y: Vec<f64> = (best - 1..=best + 1).map(|k| row[k].simulated_j).collect();
-        parabola_min(&x, &y).exp()
-    } else {
-        row[best].speed_m_s
-    };
     Ok(Optimum {
         load_kg: load,
-        simulated_cell_m_s: row[best].speed_m_s,
-        simulated_interpolated_m_s,
-        simulated_near_planner_limit: interior && !smooth,
+        simulated_cell_m_s: best.cell_m_s,
+        simulated_interpolated_m_s: best.interpolated_m_s,
+        simulated_near_planner_limit: best.near_planner_limit,
         predicted_m_s: predicted.map(|p| p.speed_m_s),
         predicted_j: predicted.map(|p| p.predicted_j),
         predicted,
+        interior: best.interior,
+    })
+}
+
+/// A cell of one load level: speed (m/s), energy (J) and slowed segments.
+type RowPoint<'a> = (f64, f64, &'a [SlowedSegment]);
+
+/// The least-energy cell of one load level's row.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RowOptimum {
+    /// Speed of the grid cell with the least energy, m/s.
+    pub cell_m_s: f64,
+    /// Minimum of a parabola in log speed through that cell and its neighbours, m/s, when the
+    /// three cells have the same slowed segments (a smooth piece of the curve); else the
+    /// cell's speed (a parabola across a planner kink would be fiction).
+    pub interpolated_m_s: f64,
+    /// Whether the neighbours of the least cell have other slowed segments than it (the grid
+    /// optimum sits at or near a planner limit).
+    pub near_planner_limit: bool,
+    /// Whether the least cell lies strictly inside the speed range.
+    pub interior: bool,
+}
+
+/// The least-energy cell of `row` (in any order); `None` for an empty row.
+fn row_optimum(mut row: Vec<RowPoint>) -> Option<RowOptimum> {
+    row.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let best = (0..row.len()).min_by(|&a, &b| row[a].1.total_cmp(&row[b].1))?;
+    let interior = best > 0 && best + 1 < row.len();
+    let slowed = |k: usize| row[k].2.iter().map(|s| s.segment).collect::<Vec<_>>();
+    let smooth = interior && slowed(best - 1) == slowed(best) && slowed(best + 1) == slowed(best);
+    let interpolated_m_s = if smooth {
+        let x: Vec<f64> = (best - 1..=best + 1).map(|k| row[k].0.ln()).collect();
+        let y: Vec<f64> = (best - 1..=best + 1).map(|k| row[k].1).collect();
+        parabola_min(&x, &y).exp()
+    } else {
+        row[best].0
+    };
+    Some(RowOptimum {
+        cell_m_s: row[best].0,
+        interpolated_m_s,
+        near_planner_limit: interior && !smooth,
         interior,
     })
 }
@@ -380,15 +620,23 @@ fn parabola_min(x: &[f64], y: &[f64]) -> f64 {
 
 /// Indices of the cells on the per-load Pareto front of (cycle time, simulated energy).
 fn pareto_front(cells: &[Cell]) -> Vec<usize> {
-    (0..cells.len())
+    pareto_of(
+        &cells
+            .iter()
+            .map(|c| (c.load_kg, c.cycle_time_s, c.simulated_j))
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// Indices of the points `(load kg, cycle time s, energy J)` that no other point of the same
+/// load beats in both cycle time and energy.
+fn pareto_of(points: &[(f64, f64, f64)]) -> Vec<usize> {
+    (0..points.len())
         .filter(|&i| {
-            let c = &cells[i];
-            !cells.iter().any(|o| {
-                o.load_kg == c.load_kg
-                    && o.cycle_time_s <= c.cycle_time_s
-                    && o.simulated_j <= c.simulated_j
-                    && (o.cycle_time_s < c.cycle_time_s || o.simulated_j < c.simulated_j)
-            })
+            let (load, time, energy) = points[i];
+            !points
+                .iter()
+                .any(|&(l, t, e)| l == load && t <= time && e <= energy && (t < time || e < energy))
         })
         .collect()
 }

@@ -1,12 +1,15 @@
 //! The identified robot as a twin: consistent URDF and drive file.
 
+use nalgebra::DMatrix;
+
 use super::{Consistent, Options, extra_params, project_estimate};
-use crate::error::Result;
+use crate::dynamics::DriveTerms;
+use crate::error::{Error, Result};
 use crate::identification::fit::Param;
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
 use crate::model::Robot;
-use crate::model::drive::{Drive, JointDrive};
+use crate::model::drive::{Brakes, Drive, JointDrive};
 use crate::model::export::{drive_string, urdf_string, with_standard_params};
 
 /// The identified robot as a twin: a physically consistent robot and drive that reproduce an
@@ -92,6 +95,45 @@ impl IdentifiedTwin {
         })
     }
 
+    /// The twin of a model read from a file, built as [`IdentifiedTwin::new`] builds the one
+    /// `identify --export-urdf --export-drive` writes, from the values and the covariance the
+    /// model itself carries: its base parameters, copper-loss coefficients (those the fit held
+    /// at zero, with zero variance, left out) and standby power, with the parameter
+    /// covariance of the fit (its eigenvalues raised to at least `1e-12` of the largest, so
+    /// that values the data fix exactly keep a positive definite metric). The prior is
+    /// `robot` itself (its URDF mass properties and `<dynamics>` friction, no rotor inertia),
+    /// as in the export. The twin's base parameters reproduce the model's: a model identified
+    /// with the consistency constraint (the default) is already consistent, so the projection
+    /// moves it by rounding only.
+    ///
+    /// Errors: a model without a covariance (written by a step-by-step or linear estimator),
+    /// an efficiency-scaled model, and what [`IdentifiedTwin::new`] refuses.
+    pub fn from_model(robot: &Robot, model: &PowerModel, opts: &Options) -> Result<IdentifiedTwin> {
+        let estimate = model_estimate(model)?;
+        let prior = model.layout.theta(robot, &DriveTerms::from_urdf(robot));
+        IdentifiedTwin::new(robot, model, &estimate, &prior, opts)
+    }
+
+    /// The same twin with the brakes-applied standstill mode `brakes` (a data-sheet value of
+    /// the controller that power does not identify, e.g. the input drive file's `[brakes]`),
+    /// for runs that wait with brakes applied; the drive TOML written by
+    /// [`IdentifiedTwin::drive_toml`] stays without it. `None` leaves the twin as it is.
+    ///
+    /// Errors: brakes the drive file format refuses (negative or non-finite values).
+    pub fn with_brakes(mut self, brakes: Option<&Brakes>) -> Result<IdentifiedTwin> {
+        if let Some(b) = brakes {
+            let text = format!(
+                "{}\n[brakes]\npower_W = {:?}\nengage_s = {:?}\nrelease_s = {:?}\n",
+                drive_string(&self.robot, &self.drive, "", &[]),
+                b.power_w,
+                b.engage_s,
+                b.release_s
+            );
+            self.drive = Drive::from_toml_str(&text, "identified drive with brakes", &self.robot)?;
+        }
+        Ok(self)
+    }
+
     /// Names of the standard parameters of joint/link `j` (0-based) that came from the prior,
     /// without the link number.
     fn prior_of(&self, j: usize) -> Vec<String> {
@@ -174,4 +216,54 @@ impl IdentifiedTwin {
             .collect();
         drive_string(&self.robot, &self.drive, &header, &notes)
     }
+}
+
+/// The estimate a model carries: `z = [theta, c_1..c_n, P0]` with the model's covariance,
+/// copper coefficients of zero variance (held at zero by the fit) left out, the covariance
+/// made positive definite (eigenvalues at least `1e-12` of the largest).
+fn model_estimate(model: &PowerModel) -> Result<Estimate> {
+    let (nb, n) = (model.theta.len(), model.copper.len());
+    let np = nb + n + 1;
+    if model.covariance.len() != np * np {
+        return Err(Error::InvalidInput(format!(
+            "model of '{}' has no parameter covariance ({} entries, expected {np}^2): the identified twin needs a model from identify --method auto, total or pmsm",
+            model.robot,
+            model.covariance.len()
+        )));
+    }
+    let cov = DMatrix::from_row_slice(np, np, &model.covariance);
+    let params: Vec<Param> = (0..nb)
+        .map(Param::Base)
+        .chain((0..n).map(Param::Copper))
+        .chain([Param::Standby])
+        .collect();
+    let z: Vec<f64> = model
+        .theta
+        .iter()
+        .chain(&model.copper)
+        .copied()
+        .chain([model.constant.iter().sum()])
+        .collect();
+    let free: Vec<usize> = (0..np)
+        .filter(|&k| !matches!(params[k], Param::Copper(_)) || cov[(k, k)] > 0.0)
+        .collect();
+    let covariance = DMatrix::from_fn(free.len(), free.len(), |r, c| cov[(free[r], free[c])]);
+    let eig = covariance.symmetric_eigen();
+    let floor = 1e-12 * eig.eigenvalues.max().max(0.0);
+    let covariance = &eig.eigenvectors
+        * DMatrix::from_diagonal(&eig.eigenvalues.map(|v| v.max(floor)))
+        * eig.eigenvectors.transpose();
+    let values: Vec<f64> = free.iter().map(|&k| z[k]).collect();
+    let std: Vec<f64> = (0..free.len()).map(|k| covariance[(k, k)].sqrt()).collect();
+    Ok(Estimate {
+        names: free.iter().map(|&k| params[k].name(&model.names)).collect(),
+        rel_std: crate::identification::lsq::rel_std(&values, &std),
+        values,
+        std,
+        cond: f64::NAN,
+        residual_rms: f64::NAN,
+        rows: 0,
+        covariance,
+        params: free.iter().map(|&k| params[k]).collect(),
+    })
 }
