@@ -106,7 +106,9 @@ fn identified_model_predicts_the_twins_energy() {
     let (code, _, err) = identify(&["--method", "energy", "--weighting", "per-log"]);
     assert_eq!(code, 1);
     assert!(
-        err.contains("--weighting, --unconstrained and --arm-power-only apply to"),
+        err.contains(
+            "--weighting, --unconstrained, --arm-power-only and the prior's options apply to"
+        ),
         "{err}"
     );
 }
@@ -143,19 +145,30 @@ fn identify_refuses_data_from_another_robot_and_bad_input() {
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("is from robot 'abb_irb1200_7_70'"), "{err}");
-    // One joint moving for 2 s cannot identify 52 parameters: the error names what is missing.
-    let (code, _, err) = powertwin(&[
-        "identify",
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        tmp("m.json").to_str().unwrap(),
-    ]);
+    // One joint moving for 2 s cannot identify 52 parameters from the data alone: the error
+    // names what is missing; with the prior (the default) it gives a model and says what the
+    // data determined.
+    let m_json = tmp("m.json");
+    let one_joint = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "--data",
+            data.to_str().unwrap(),
+            "--out",
+            m_json.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        powertwin(&args)
+    };
+    let (code, _, err) = one_joint(&["--no-prior"]);
     assert_eq!(code, 1);
     assert!(
         err.contains("need more data") || err.contains("rank-deficient"),
         "{err}"
     );
+    let (code, _, err) = one_joint(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("determined by the data: "), "{err}");
     let (code, _, err) = powertwin(&[
         "identify",
         "--data",
