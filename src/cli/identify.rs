@@ -144,7 +144,7 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     robot: RobotArgs,
     /// Dataset directories (for paper-steps: one per step, joint 6 first).
-    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log", conflicts_with = "log")]
+    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log_input", conflicts_with = "log_input")]
     data: Vec<PathBuf>,
     #[command(flatten)]
     logs: LogArgs,

@@ -37,8 +37,8 @@ pub struct PredictArgs {
     #[arg(
         long,
         value_name = "DIR",
-        required_unless_present_any = ["log", "trajectory", "scenario"],
-        conflicts_with = "log"
+        required_unless_present_any = ["log_input", "trajectory", "scenario"],
+        conflicts_with = "log_input"
     )]
     data: Option<PathBuf>,
     /// A planned joint trajectory to price, no power needed: CSV with t_s (s), q1_rad..qn_rad
@@ -49,11 +49,11 @@ pub struct PredictArgs {
     /// end where a joint stands still). Refused outside the joint position or velocity
     /// limits. Payloads: --payload from before the start, or --payload-events on the file's
     /// t_s clock.
-    #[arg(long, value_name = "PLAN.csv", conflicts_with_all = ["data", "log", "scenario"])]
+    #[arg(long, value_name = "PLAN.csv", conflicts_with_all = ["data", "log_input", "scenario"])]
     trajectory: Option<PathBuf>,
     /// A task scenario TOML to price as planned at --speed and --load (as `sweep` plans a
     /// cell: the scenario's tool from the start, each load from its pick to its release).
-    #[arg(long, value_name = "S.toml", conflicts_with_all = ["data", "log", "payload", "payload_events"])]
+    #[arg(long, value_name = "S.toml", conflicts_with_all = ["data", "log_input", "payload", "payload_events"])]
     scenario: Option<PathBuf>,
     /// Commanded TCP speed of --scenario, m/s [default: the scenario's sweep speed nearest
     /// 0.5 m/s].
