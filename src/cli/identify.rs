@@ -19,9 +19,11 @@ use powertwin::identification::model::PowerModel;
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
 use powertwin::measurement::Log;
+use powertwin::measurement::segments::MoveOptions;
 use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
+use powertwin::validation::holdout::holdout;
 use serde_json::json;
 
 use super::RobotArgs;
@@ -178,6 +180,14 @@ pub struct IdentifyArgs {
     /// under the larger joints' power.
     #[arg(long)]
     arm_power_only: bool,
+    /// Before fitting on everything, check the identification out of sample on your own
+    /// logs: leave out every K-th run (with fewer than 4 runs, every K-th rest-to-rest move),
+    /// identify on the rest with the same options and report each held-out piece's measured
+    /// and predicted energy, error, 95 % interval and power RMSE, then the median and worst
+    /// error and the interval coverage (stderr). 0 skips it; with too few pieces it is
+    /// skipped with a note. For --method auto, total and pmsm.
+    #[arg(long, value_name = "K", default_value_t = 4)]
+    holdout: usize,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -259,6 +269,15 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
     check_method(args, &logs, fitted, min_speed)?;
     let route = args.route.route();
+    if fitted && args.holdout > 0 {
+        report_holdout(
+            &robot,
+            &logs,
+            args.holdout,
+            route,
+            &fit_options(args, min_speed),
+        );
+    }
     let identified = if fitted {
         identify_fitted(args, &robot, &logs, route, min_speed)?
     } else {
@@ -268,8 +287,20 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Print the held-out check of `--holdout every` to stderr, or why it was skipped: it never
+/// stops the identification on everything.
+fn report_holdout(robot: &Robot, logs: &[Log], every: usize, route: Route, opts: &FitOptions) {
+    match holdout(robot, logs, every, route, opts, &MoveOptions::default()) {
+        Ok(h) => eprintln!("{h}"),
+        Err(e) => eprintln!("holdout skipped: {e}"),
+    }
+}
+
 /// Refuse options that do not apply to the method.
 fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64) -> Result<()> {
+    if args.holdout == 1 {
+        bail!("--holdout 1 would hold out every run: give 0 (no holdout) or at least 2");
+    }
     if min_speed > 0.0 && args.method == Method::Energy {
         bail!(
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
@@ -304,20 +335,14 @@ struct Identified {
     cross_validation: Vec<CvScore>,
 }
 
-/// `--method auto`, `total` or `pmsm`: the fitted estimators, chosen by cross-validation.
-fn identify_fitted(
-    args: &IdentifyArgs,
-    robot: &Robot,
-    logs: &[Log],
-    route: Route,
-    min_speed: f64,
-) -> Result<Identified> {
+/// The options of `--method auto`, `total` or `pmsm`.
+fn fit_options(args: &IdentifyArgs, min_speed: f64) -> FitOptions {
     let candidates = match args.method {
         Method::Total => vec![Estimator::Total],
         Method::Pmsm => vec![Estimator::Pmsm],
         _ => vec![Estimator::Total, Estimator::Pmsm],
     };
-    let opts = FitOptions {
+    FitOptions {
         min_speed,
         candidates,
         weighting: args
@@ -326,8 +351,18 @@ fn identify_fitted(
         consistent: !args.unconstrained,
         motor_power: !args.arm_power_only,
         ..FitOptions::default()
-    };
-    let sel = identify_logs(robot, logs, &[route], &opts)?;
+    }
+}
+
+/// `--method auto`, `total` or `pmsm`: the fitted estimators, chosen by cross-validation.
+fn identify_fitted(
+    args: &IdentifyArgs,
+    robot: &Robot,
+    logs: &[Log],
+    route: Route,
+    min_speed: f64,
+) -> Result<Identified> {
+    let sel = identify_logs(robot, logs, &[route], &fit_options(args, min_speed))?;
     eprintln!(
         "fitted on {}",
         match (sel.motor_power, args.arm_power_only) {
