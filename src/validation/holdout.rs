@@ -67,14 +67,19 @@ pub fn split(logs: &[Log], every: usize, moves: &MoveOptions) -> Result<Split> {
             "holdout every {every}-th piece: give 0 (no holdout) or at least 2"
         )));
     }
-    let held = |n: usize| (n + 1) % every == 0;
+    let held = |n: usize| (n + 1).is_multiple_of(every);
     if logs.len() >= MIN_RUNS.max(every) {
-        let (held_out, train): (Vec<(usize, &Log)>, Vec<(usize, &Log)>) =
-            logs.iter().enumerate().partition(|(n, _)| held(*n));
+        let pick = |out: bool| -> Vec<Log> {
+            logs.iter()
+                .enumerate()
+                .filter(|(n, _)| held(*n) == out)
+                .map(|(_, l)| l.clone())
+                .collect()
+        };
         return Ok(Split {
             unit: Unit::Run,
-            train: train.into_iter().map(|(_, l)| l.clone()).collect(),
-            held_out: held_out.into_iter().map(|(_, l)| l.clone()).collect(),
+            train: pick(false),
+            held_out: pick(true),
         });
     }
     let ranges: Vec<Vec<(f64, f64)>> = logs.iter().map(|l| auto_moves(l, moves)).collect();
