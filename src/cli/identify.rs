@@ -23,7 +23,7 @@ use powertwin::measurement::segments::MoveOptions;
 use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
-use powertwin::validation::holdout::holdout;
+use powertwin::validation::holdout::{DEFAULT_EVERY, holdout};
 use serde_json::json;
 
 use super::RobotArgs;
@@ -185,9 +185,9 @@ pub struct IdentifyArgs {
     /// identify on the rest with the same options and report each held-out piece's measured
     /// and predicted energy, error, 95 % interval and power RMSE, then the median and worst
     /// error and the interval coverage (stderr). 0 skips it; with too few pieces it is
-    /// skipped with a note. For --method auto, total and pmsm.
-    #[arg(long, value_name = "K", default_value_t = 4)]
-    holdout: usize,
+    /// skipped with a note. For --method auto, total and pmsm [default: 4].
+    #[arg(long, value_name = "K")]
+    holdout: Option<usize>,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -269,15 +269,7 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
     check_method(args, &logs, fitted, min_speed)?;
     let route = args.route.route();
-    if fitted && args.holdout > 0 {
-        report_holdout(
-            &robot,
-            &logs,
-            args.holdout,
-            route,
-            &fit_options(args, min_speed),
-        );
-    }
+    report_holdout(args, &robot, &logs, (route, min_speed), fitted);
     let identified = if fitted {
         identify_fitted(args, &robot, &logs, route, min_speed)?
     } else {
@@ -287,10 +279,27 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Print the held-out check of `--holdout every` to stderr, or why it was skipped: it never
-/// stops the identification on everything.
-fn report_holdout(robot: &Robot, logs: &[Log], every: usize, route: Route, opts: &FitOptions) {
-    match holdout(robot, logs, every, route, opts, &MoveOptions::default()) {
+/// Print the held-out check of `--holdout` (along `route`, at `min_speed` rad/s) to stderr,
+/// or why it was skipped: it never stops the identification on everything.
+fn report_holdout(
+    args: &IdentifyArgs,
+    robot: &Robot,
+    logs: &[Log],
+    (route, min_speed): (Route, f64),
+    fitted: bool,
+) {
+    let every = args.holdout.unwrap_or(DEFAULT_EVERY);
+    if every == 0 {
+        return;
+    }
+    if !fitted {
+        if args.holdout.is_some() {
+            eprintln!("holdout skipped: --holdout applies to --method auto, total and pmsm");
+        }
+        return;
+    }
+    let opts = fit_options(args, min_speed);
+    match holdout(robot, logs, every, route, &opts, &MoveOptions::default()) {
         Ok(h) => eprintln!("{h}"),
         Err(e) => eprintln!("holdout skipped: {e}"),
     }
@@ -298,7 +307,7 @@ fn report_holdout(robot: &Robot, logs: &[Log], every: usize, route: Route, opts:
 
 /// Refuse options that do not apply to the method.
 fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64) -> Result<()> {
-    if args.holdout == 1 {
+    if args.holdout == Some(1) {
         bail!("--holdout 1 would hold out every run: give 0 (no holdout) or at least 2");
     }
     if min_speed > 0.0 && args.method == Method::Energy {

@@ -19,6 +19,9 @@ use crate::measurement::segments::{MoveOptions, auto_moves, slice_time};
 use crate::model::Robot;
 use crate::validation::log_price::price_log;
 
+/// Every how many runs (or moves) one is held out unless told otherwise (K).
+pub const DEFAULT_EVERY: usize = 4;
+
 /// Logs from which the held-out pieces are whole logs rather than moves.
 pub const MIN_RUNS: usize = 4;
 
