@@ -348,4 +348,24 @@ fn holdout_reports_held_out_runs_and_moves() {
     assert!(written.is_some());
     let (code, err, _) = identify("holdout1.json", &["--runs", &s(&two), "--holdout", "1"]);
     assert_eq!(code, 1, "{err}");
+    // Moves cut from logs do not suit the Fourier route; a paper method takes no holdout.
+    let (code, err, _) = identify(
+        "holdout_fourier.json",
+        &["--runs", &s(&two), "--base-freq", "0.1"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("holdout skipped: ") && err.contains("Fourier"),
+        "{err}"
+    );
+    let bare = manifest(
+        "holdout_bare.toml",
+        &[&run_lines(1, "none"), &run_lines(2, "none")],
+    );
+    let (code, err, _) = identify(
+        "holdout_energy.json",
+        &["--runs", &s(&bare), "--method", "energy", "--holdout", "4"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("--holdout applies to --method auto"), "{err}");
 }

@@ -181,8 +181,8 @@ pub struct Holdout {
 /// Hold out every `every`-th run or move of `logs` ([`split`]), identify `robot` on the rest
 /// along `route` with `opts` ([`identify_logs`]), and predict each held-out piece with that
 /// model. The figures are out of sample on the user's own robot. Errors: those of [`split`],
-/// of the identification on the remaining logs (e.g. too little excitation left), of the
-/// prediction.
+/// moves along the Fourier route (it fits whole periodic logs), those of the identification
+/// on the remaining logs (e.g. too little excitation left) and of the prediction.
 pub fn holdout(
     robot: &Robot,
     logs: &[Log],
@@ -192,6 +192,13 @@ pub fn holdout(
     moves: &MoveOptions,
 ) -> Result<Holdout> {
     let s = split(logs, every, moves)?;
+    if s.unit == Unit::Move && matches!(route, Route::Fourier { .. }) {
+        return Err(Error::InvalidInput(format!(
+            "the Fourier route (--base-freq) fits whole periodic logs, not moves cut from them: \
+             leaving out runs needs at least {} logs",
+            MIN_RUNS.max(every)
+        )));
+    }
     let model = identify_logs(robot, &s.train, &[route], opts)?.fit.model;
     let pieces = s
         .held_out
