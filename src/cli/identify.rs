@@ -227,8 +227,8 @@ fn read_logs(data: &[PathBuf], robot: &Robot, payloads: &PayloadArgs) -> Result<
         .collect()
 }
 
-/// The logs of `--data` datasets or `--log` files, for `robot`, with the payload timeline of
-/// `payloads` when given.
+/// The logs of `--data` datasets, `--log` files or the runs of a `--runs` manifest, for
+/// `robot`, with the payload timeline of `payloads` when given (a manifest gives each run's).
 pub(super) fn gather(
     data: &[PathBuf],
     log_args: &LogArgs,
