@@ -20,9 +20,11 @@ use powertwin::identification::prior::{Determination, Prior, PriorWidths};
 use powertwin::identification::steps::{self, StepData, hold_still};
 use powertwin::io::write_atomic;
 use powertwin::measurement::Log;
+use powertwin::measurement::segments::MoveOptions;
 use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
+use powertwin::validation::holdout::{DEFAULT_EVERY, Holdout, holdout};
 use serde_json::json;
 
 use super::RobotArgs;
@@ -145,7 +147,7 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     robot: RobotArgs,
     /// Dataset directories (for paper-steps: one per step, joint 6 first).
-    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log", conflicts_with = "log")]
+    #[arg(long, value_name = "DIR", num_args = 1.., required_unless_present = "log_input", conflicts_with = "log_input")]
     data: Vec<PathBuf>,
     #[command(flatten)]
     logs: LogArgs,
@@ -184,6 +186,14 @@ pub struct IdentifyArgs {
     /// under the larger joints' power.
     #[arg(long)]
     arm_power_only: bool,
+    /// Before fitting on everything, check the identification out of sample on your own
+    /// logs: leave out every K-th run (with fewer than 4 runs, every K-th rest-to-rest move),
+    /// identify on the rest with the same options and report each held-out piece's measured
+    /// and predicted energy, error, 95 % interval and power RMSE, then the median and worst
+    /// error and the interval coverage (stderr). 0 skips it; with too few pieces it is
+    /// skipped with a note. For --method auto, total and pmsm [default: 4].
+    #[arg(long, value_name = "K")]
+    holdout: Option<usize>,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
@@ -289,8 +299,8 @@ fn read_logs(data: &[PathBuf], robot: &Robot, payloads: &PayloadArgs) -> Result<
         .collect()
 }
 
-/// The logs of `--data` datasets or `--log` files, for `robot`, with the payload timeline of
-/// `payloads` when given.
+/// The logs of `--data` datasets, `--log` files or the runs of a `--runs` manifest, for
+/// `robot`, with the payload timeline of `payloads` when given (a manifest gives each run's).
 pub(super) fn gather(
     data: &[PathBuf],
     log_args: &LogArgs,
@@ -331,18 +341,60 @@ pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
         .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
     check_method(args, &logs, fitted, min_speed)?;
     let route = args.route.route();
+    let prior = if fitted {
+        args.prior.prior(&robot, &args.robot)?
+    } else {
+        None
+    };
+    let held_out = report_holdout(args, &robot, &logs, (route, min_speed), fitted, &prior);
     let identified = if fitted {
-        let prior = args.prior.prior(&robot, &args.robot)?;
         identify_fitted(args, &robot, &logs, route, min_speed, prior)?
     } else {
         identify_paper(args.method, &robot, &logs, route, min_speed)?
     };
-    write_and_report(args, &robot, &identified)?;
+    write_and_report(args, &robot, &identified, held_out.as_ref())?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The held-out check of `--holdout` (along `route`, at `min_speed` rad/s, with `prior`),
+/// printed to stderr, or why it was skipped (then `None`): it never stops the identification
+/// on everything.
+fn report_holdout(
+    args: &IdentifyArgs,
+    robot: &Robot,
+    logs: &[Log],
+    (route, min_speed): (Route, f64),
+    fitted: bool,
+    prior: &Option<Prior>,
+) -> Option<Holdout> {
+    let every = args.holdout.unwrap_or(DEFAULT_EVERY);
+    if every == 0 {
+        return None;
+    }
+    if !fitted {
+        if args.holdout.is_some() {
+            eprintln!("holdout skipped: --holdout applies to --method auto, total and pmsm");
+        }
+        return None;
+    }
+    let opts = fit_options(args, min_speed, prior.clone());
+    match holdout(robot, logs, every, route, &opts, &MoveOptions::default()) {
+        Ok(h) => {
+            eprintln!("{h}");
+            Some(h)
+        }
+        Err(e) => {
+            eprintln!("holdout skipped: {e}");
+            None
+        }
+    }
 }
 
 /// Refuse options that do not apply to the method.
 fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64) -> Result<()> {
+    if args.holdout == Some(1) {
+        bail!("--holdout 1 would hold out every run: give 0 (no holdout) or at least 2");
+    }
     if min_speed > 0.0 && args.method == Method::Energy {
         bail!(
             "--min-speed does not apply to the energy method (its windows join consecutive samples)"
@@ -388,6 +440,27 @@ struct Identified {
     determination: Option<Determination>,
 }
 
+/// The options of `--method auto`, `total` or `pmsm`, with `prior`.
+fn fit_options(args: &IdentifyArgs, min_speed: f64, prior: Option<Prior>) -> FitOptions {
+    let candidates = match args.method {
+        Method::Total => vec![Estimator::Total],
+        Method::Pmsm => vec![Estimator::Pmsm],
+        _ => vec![Estimator::Total, Estimator::Pmsm],
+    };
+    FitOptions {
+        min_speed,
+        candidates,
+        weighting: args
+            .weighting
+            .map_or(FitOptions::default().weighting, Into::into),
+        consistent: !args.unconstrained,
+        motor_power: !args.arm_power_only,
+        max_fit_rate_hz: args.fit_rate,
+        prior,
+        ..FitOptions::default()
+    }
+}
+
 /// `--method auto`, `total` or `pmsm`: the fitted estimators, chosen by cross-validation.
 fn identify_fitted(
     args: &IdentifyArgs,
@@ -397,24 +470,12 @@ fn identify_fitted(
     min_speed: f64,
     prior: Option<Prior>,
 ) -> Result<Identified> {
-    let candidates = match args.method {
-        Method::Total => vec![Estimator::Total],
-        Method::Pmsm => vec![Estimator::Pmsm],
-        _ => vec![Estimator::Total, Estimator::Pmsm],
-    };
-    let opts = FitOptions {
-        min_speed,
-        candidates,
-        weighting: args
-            .weighting
-            .map_or(FitOptions::default().weighting, Into::into),
-        consistent: !args.unconstrained,
-        motor_power: !args.arm_power_only,
-        max_fit_rate_hz: args.fit_rate,
-        prior: prior.clone(),
-        ..FitOptions::default()
-    };
-    let sel = identify_logs(robot, logs, &[route], &opts)?;
+    let sel = identify_logs(
+        robot,
+        logs,
+        &[route],
+        &fit_options(args, min_speed, prior.clone()),
+    )?;
     eprintln!(
         "fitted on {}",
         match (sel.motor_power, args.arm_power_only) {
@@ -539,7 +600,12 @@ fn identify_paper(
 
 /// Check the model's physical consistency, export it if asked, write `--out` and print the
 /// summary.
-fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified) -> Result<()> {
+fn write_and_report(
+    args: &IdentifyArgs,
+    robot: &Robot,
+    identified: &Identified,
+    held_out: Option<&Holdout>,
+) -> Result<()> {
     let Identified {
         model,
         estimates,
@@ -604,6 +670,7 @@ fn write_and_report(args: &IdentifyArgs, robot: &Robot, identified: &Identified)
             "condition_number": estimates.last().map(|e| e.cond),
             "physically_consistent": consistency.consistent,
             "determination": determination,
+            "holdout": held_out,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     }

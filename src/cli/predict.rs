@@ -11,13 +11,13 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use powertwin::Robot;
 use powertwin::dataset::Dataset;
-use powertwin::identification::data::{Prepared, power_times, prepare};
-use powertwin::identification::energy::window_energies;
-use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel, Prediction};
+use powertwin::identification::data::{Prepared, prepare};
+use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::identification::plan::{price, price_scenario, read_plan, scenario_cell};
 use powertwin::io::write_atomic;
 use powertwin::model::payload::PayloadEvent;
 use powertwin::trajectory::task::Scenario;
+use powertwin::validation::log_price::{LogPrice, price_log};
 use serde_json::json;
 
 use super::identify::{PayloadArgs, RouteArgs, gather};
@@ -37,8 +37,8 @@ pub struct PredictArgs {
     #[arg(
         long,
         value_name = "DIR",
-        required_unless_present_any = ["log", "trajectory", "scenario"],
-        conflicts_with = "log"
+        required_unless_present_any = ["log_input", "trajectory", "scenario"],
+        conflicts_with = "log_input"
     )]
     data: Option<PathBuf>,
     /// A planned joint trajectory to price, no power needed: CSV with t_s (s), q1_rad..qn_rad
@@ -49,11 +49,11 @@ pub struct PredictArgs {
     /// end where a joint stands still). Refused outside the joint position or velocity
     /// limits. Payloads: --payload from before the start, or --payload-events on the file's
     /// t_s clock.
-    #[arg(long, value_name = "PLAN.csv", conflicts_with_all = ["data", "log", "scenario"])]
+    #[arg(long, value_name = "PLAN.csv", conflicts_with_all = ["data", "log_input", "scenario"])]
     trajectory: Option<PathBuf>,
     /// A task scenario TOML to price as planned at --speed and --load (as `sweep` plans a
     /// cell: the scenario's tool from the start, each load from its pick to its release).
-    #[arg(long, value_name = "S.toml", conflicts_with_all = ["data", "log", "payload", "payload_events"])]
+    #[arg(long, value_name = "S.toml", conflicts_with_all = ["data", "log_input", "payload", "payload_events"])]
     scenario: Option<PathBuf>,
     /// Commanded TCP speed of --scenario, m/s [default: the scenario's sweep speed nearest
     /// 0.5 m/s].
@@ -85,35 +85,6 @@ pub struct PredictArgs {
     viz: super::viz::VizArgs,
 }
 
-/// One log's prediction.
-struct Row {
-    /// Where the log came from.
-    source: String,
-    /// Predicted energy with its interval.
-    prediction: Prediction,
-    /// Energy of the measured signal over the log, J.
-    measured_j: f64,
-    /// Times the logged power belongs to, s (log clock).
-    t_s: Vec<f64>,
-    /// Measured power at those times, W.
-    measured_w: Vec<f64>,
-    /// Predicted power of the measured signal at those times, W.
-    predicted_w: Vec<f64>,
-}
-
-impl Row {
-    /// RMS of predicted minus measured power, W.
-    fn rmse_w(&self) -> f64 {
-        let se: f64 = self
-            .predicted_w
-            .iter()
-            .zip(&self.measured_w)
-            .map(|(p, y)| (p - y).powi(2))
-            .sum();
-        (se / self.measured_w.len().max(1) as f64).sqrt()
-    }
-}
-
 /// Run `predict`.
 pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
@@ -139,33 +110,11 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
         }
         _ => None,
     };
-    let mut rows = Vec::new();
+    let mut rows: Vec<LogPrice> = Vec::new();
     let mut prepared: Vec<Prepared> = Vec::new();
     for log in &logs {
         let p = prepare(log, args.route.route())?;
-        let events = p.motion_events();
-        let measured_j: f64 = window_energies(&p.states.t, &p.p_total, p.power_averaged)
-            .iter()
-            .sum();
-        let t_s = power_times(&p.states.t, p.power_averaged);
-        let t: Vec<f64> = t_s.iter().map(|t| t - p.motion_t0_s).collect();
-        // The log's motion is priced as a plan is: same step, same clipping of the power.
-        let priced = price(
-            &model,
-            &robot,
-            p.motion.as_ref(),
-            &events,
-            DATASHEET_EFFICIENCY,
-            &t,
-        )?;
-        rows.push(Row {
-            source: log.source.clone(),
-            prediction: priced.prediction,
-            measured_j,
-            t_s,
-            measured_w: p.p_total.clone(),
-            predicted_w: priced.power_w,
-        });
+        rows.push(price_log(&model, &robot, &p, &log.source)?);
         prepared.push(p);
     }
     if let Some(path) = &args.power_out {
@@ -220,7 +169,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
             let mut v = json!({
                 "source": r.source,
                 "predicted_J": pred.energy_j, "interval_95_J": pred.interval_j,
-                "measured_J": r.measured_j, "error_vs_measured_pct": pct(pred.energy_j, r.measured_j),
+                "measured_J": r.measured_j, "error_vs_measured_pct": r.error_pct(),
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
@@ -252,7 +201,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 pred.energy_j,
                 pred.interval_j,
                 r.measured_j,
-                pct(pred.energy_j, r.measured_j),
+                r.error_pct(),
                 r.rmse_w()
             );
         }

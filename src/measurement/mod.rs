@@ -9,12 +9,13 @@
 //! powertwin's own column names, or the `ur-rtde` preset), repairs the time base
 //! ([`clean`]), estimates the lag of the power behind the joints ([`lag`]) and reports all
 //! it did in a [`read::ReadReport`]; [`segments`] cuts logs into time ranges or
-//! rest-to-rest moves. The column map format is documented in [`columns`] and
-//! `docs/guide/log-columns.md`.
+//! rest-to-rest moves; a [`manifest::Manifest`] lists several logs, each with its own payload.
+//! The column map format is documented in [`columns`] and `docs/guide/log-columns.md`.
 
 pub mod clean;
 pub mod columns;
 pub mod lag;
+pub mod manifest;
 pub mod read;
 pub mod segments;
 

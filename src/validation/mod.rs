@@ -14,13 +14,19 @@
 //! * [`score`]: scoring against the twin's truth: energy errors, the held-out scores and their
 //!   spread, identified against true base parameters (Table 2).
 //!
+//! Two modules need no truth and work on a user's own logs: [`log_price`] prices a measured
+//! log with a model as `predict` does, and [`holdout`] checks an identification out of sample
+//! on the user's robot (`identify --holdout`).
+//!
 //! Every experiment runs the twin through a [`rig::Rig`] and reports progress through
 //! [`rig::Progress`]. The physical-consistency check of an identified model needs no truth:
 //! it is [`crate::identification::consistency`].
 
 pub mod estimators;
 pub mod heldout;
+pub mod holdout;
 pub mod idset;
+pub mod log_price;
 pub mod optimized;
 pub mod payloads;
 pub mod reproduce;
