@@ -7,9 +7,9 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use powertwin::identification::excitation::{ExcitationOptions, design, rest_pose, standby_pose};
-use powertwin::identification::excitation_set::arm::{ArmSet, plan};
+use powertwin::identification::excitation_set::arm::{ArmSet, design as design_arm_set};
 use powertwin::identification::excitation_set::export::{SetFiles, write_set};
-use powertwin::identification::excitation_set::{SetDesign, SetOptions, design_set};
+use powertwin::identification::excitation_set::{SetDesign, SetOptions};
 use powertwin::io::write_atomic;
 use powertwin::model::payload::{Payload, check_rated, resolve};
 use powertwin::trajectory::Trajectory;
@@ -59,7 +59,7 @@ pub struct ExciteArgs {
     #[arg(long, default_value_t = 2, conflicts_with = "set")]
     starts: usize,
     /// Objective evaluations per start (with --set: per excitation and round) [default: 3000;
-    /// with --set 300].
+    /// with --set 2000].
     #[arg(long)]
     evals: Option<usize>,
     /// Seed of the optimiser (with --set: also of the centres).
@@ -289,15 +289,14 @@ fn run_set(args: &ExciteArgs, count: usize) -> Result<ExitCode> {
         harmonics: args.harmonics,
         accel_limits,
         rounds: args.rounds,
-        max_evals: args.evals.unwrap_or(300),
+        max_evals: args.evals.unwrap_or(2000),
         seed: args.seed,
     };
     let what = || match &args.cell {
         Some(path) => format!("cell {}", path.display()),
         None => "the default workspace".into(),
     };
-    let problem = plan(&robot, &cell, &set).with_context(|| format!("designing in {}", what()))?;
-    let design = design_set(&problem.robot, &problem.options)
+    let (problem, design) = design_arm_set(&robot, &cell, &set)
         .with_context(|| format!("designing {count} excitations in {}", what()))?;
     let urscript = args.format == Format::Urscript;
     let rate_hz = args

@@ -29,7 +29,11 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::kinematics::fk::link_poses;
 use crate::model::{JointLimits, Robot};
+
+use super::Trajectory;
+use super::limits::check_limits;
 
 /// A joint range narrower than the URDF's.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -200,5 +204,50 @@ impl Cell {
             *robot.flange(),
             robot.flange_name(),
         )
+    }
+
+    /// Check `traj` every `dt` s against the cell: the position and velocity limits of
+    /// `limited` (the robot as [`Cell::limit`] returned it), `accel_limits` (rad/s^2, already
+    /// scaled), and the flange and the wrist centre (the origin of the second-to-last link
+    /// frame) above [`Cell::floor_z`] and `base_radius_m` from the base z axis.
+    ///
+    /// Errors: [`Error::JointLimit`] naming the first violation, its time (s) and the point;
+    /// the input errors of [`check_limits`].
+    pub fn check_motion(
+        &self,
+        limited: &Robot,
+        traj: &dyn Trajectory,
+        accel_limits: &[f64],
+        dt: f64,
+    ) -> Result<()> {
+        check_limits(limited, traj, dt, Some(accel_limits))?;
+        let n = limited.dof();
+        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut poses = vec![nalgebra::Isometry3::identity(); n];
+        let steps = (traj.duration() / dt).ceil() as usize;
+        for k in 0..=steps {
+            let t = (k as f64 * dt).min(traj.duration());
+            traj.sample(t, &mut q, &mut dq, &mut ddq);
+            link_poses(limited, &q, &mut poses);
+            let flange = poses[n - 1] * limited.flange();
+            let points = [
+                ("wrist", poses[n.saturating_sub(2)].translation.vector),
+                ("flange", flange.translation.vector),
+            ];
+            for (what, p) in points {
+                let radius = p.x.hypot(p.y);
+                if p.z < self.floor_z() || radius < self.base_radius_m {
+                    return Err(Error::JointLimit(format!(
+                        "the {what} at t = {t:.3} s is at z = {:.4} m, {radius:.4} m from the \
+                         base axis: the cell keeps it above z = {:.4} m (floor and margin) and \
+                         {} m from the axis",
+                        p.z,
+                        self.floor_z(),
+                        self.base_radius_m
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 }

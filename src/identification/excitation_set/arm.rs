@@ -7,7 +7,9 @@
 
 use crate::error::{Error, Result};
 use crate::identification::excitation_set::centres::spread_centres;
-use crate::identification::excitation_set::{Member, SetCriterion, SetOptions};
+use crate::identification::excitation_set::{
+    Member, SetCriterion, SetDesign, SetOptions, design_set,
+};
 use crate::identification::tuning;
 use crate::model::Robot;
 use crate::model::payload::Payload;
@@ -18,6 +20,11 @@ const POSITION_MARGIN_RAD: f64 = 0.05;
 /// Fraction of the cell's speed and acceleration limits the optimiser may use (headroom
 /// for tracking).
 const LIMIT_FRACTION: f64 = 0.9;
+/// Added to the cell's floor height and base radius for the optimiser, m: it checks the
+/// workspace at 100 samples per period, and a motion may dip a few mm between them.
+const WORKSPACE_CUSHION_M: f64 = 0.01;
+/// Step at which each designed excitation is checked against the cell, s.
+const CHECK_STEP_S: f64 = 1e-3;
 /// Rate of the samples the design conditions, Hz: the paper's logging rate (the fit sees
 /// samples at least this dense).
 const SAMPLE_RATE_HZ: f64 = 10.0;
@@ -92,6 +99,8 @@ pub fn plan(robot: &Robot, cell: &Cell, set: &ArmSet) -> Result<ArmPlan> {
         cell.base_radius_m,
         set.seed,
     )?;
+    let floor_z = cell.floor_z() + WORKSPACE_CUSHION_M;
+    let base_radius = cell.base_radius_m + WORKSPACE_CUSHION_M;
     let members = centres
         .into_iter()
         .zip(&set.payloads)
@@ -115,8 +124,8 @@ pub fn plan(robot: &Robot, cell: &Cell, set: &ArmSet) -> Result<ArmPlan> {
         accel_limits: cell.accel_limits(&set.accel_limits),
         position_margin: POSITION_MARGIN_RAD,
         limit_fraction: LIMIT_FRACTION,
-        floor_z: cell.floor_z(),
-        base_radius: cell.base_radius_m,
+        floor_z,
+        base_radius,
         rounds: set.rounds,
         max_evals: set.max_evals,
         seed: set.seed,
@@ -125,4 +134,23 @@ pub fn plan(robot: &Robot, cell: &Cell, set: &ArmSet) -> Result<ArmPlan> {
         robot: limited,
         options,
     })
+}
+
+/// Plan ([`plan`]), design ([`design_set`]) and check the set of `robot` in `cell`: every
+/// excitation is checked every millisecond against the cell ([`Cell::check_motion`]).
+///
+/// Errors: those of [`plan`] and [`design_set`], and an excitation that leaves the cell.
+pub fn design(robot: &Robot, cell: &Cell, set: &ArmSet) -> Result<(ArmPlan, SetDesign)> {
+    let problem = plan(robot, cell, set)?;
+    let designed = design_set(&problem.robot, &problem.options)?;
+    for (k, traj) in designed.trajectories.iter().enumerate() {
+        cell.check_motion(
+            &problem.robot,
+            traj,
+            &problem.options.accel_limits,
+            CHECK_STEP_S,
+        )
+        .map_err(|e| e.context(&format!("excitation {} of the set", k + 1)))?;
+    }
+    Ok((problem, designed))
 }
