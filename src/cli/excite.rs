@@ -82,7 +82,7 @@ pub struct ExciteArgs {
     drive: Option<PathBuf>,
     /// With --set: the robot cell (TOML: floor_z_m, floor_margin_m, base_radius_m,
     /// speed_scaling, accel_scaling, [[joint]] name, lower_rad, upper_rad; see
-    /// docs/guide/your-robot.md) [default: floor at z = 0 m with 0.05 m margin, 0.15 m around
+    /// docs/guide/cli.md) [default: floor at z = 0 m with 0.05 m margin, 0.15 m around
     /// the base, the URDF's ranges, full speed].
     #[arg(long, value_name = "CELL.toml", requires = "set")]
     cell: Option<PathBuf>,
