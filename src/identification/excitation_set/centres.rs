@@ -20,7 +20,7 @@ const CENTRE_CLEARANCE_M: f64 = 0.1;
 /// link frame) above `floor_z` (m) and `base_radius` (m) from the base z axis.
 ///
 /// Seeded random candidates are drawn in the middle half of each joint's range, clear of
-/// the workspace by [`CENTRE_CLEARANCE_M`] more (or, when none is, anywhere in the ranges
+/// the workspace by 0.1 m more (or, when none is, anywhere in the ranges
 /// and just clear of it). The first centre is the candidate nearest the middle of the
 /// ranges; each next one the candidate farthest from those chosen (distances in joint space,
 /// each joint scaled by its range). With fewer candidates than `count`, they repeat.
