@@ -371,13 +371,8 @@ fn structural(robot: &Robot) -> Result<Robot> {
     )
 }
 
-/// Design the identification set of `opts` for `robot` (see the module docs).
-///
-/// Errors: no members, a centre of the wrong length or outside the position limits, a
-/// non-positive frequency or rate, zero periods or rounds, fewer than 2 harmonics, a payload
-/// that is not physical, or a result that still violates a limit.
-pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
-    let start = Instant::now();
+/// Refuse the options [`design_set`] cannot design with (see its errors).
+fn check_options(robot: &Robot, opts: &SetOptions) -> Result<()> {
     let n = robot.dof();
     if opts.members.is_empty() || opts.rounds == 0 || opts.harmonics < 2 {
         return Err(Error::InvalidInput(
@@ -409,6 +404,18 @@ pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
             )));
         }
     }
+    Ok(())
+}
+
+/// Design the identification set of `opts` for `robot` (see the module docs).
+///
+/// Errors: no members, a centre of the wrong length or outside the position limits, a
+/// non-positive frequency or rate, zero periods or rounds, fewer than 2 harmonics, a payload
+/// that is not physical, or a result that still violates a limit.
+pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
+    let start = Instant::now();
+    let n = robot.dof();
+    check_options(robot, opts)?;
     let layout = ParamLayout::new(robot, true, true);
     let base = BaseParams::compute(&structural(robot)?, layout, &SamplingOptions::default())?;
     let drive = DriveTerms::from_urdf(robot);
