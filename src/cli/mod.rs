@@ -92,7 +92,8 @@ enum Command {
     Dynamics(dynamics::DynamicsArgs),
     /// Base (minimal) parameters: count, independent set, regrouping relations and values.
     BaseParams(base_params::BaseParamsArgs),
-    /// Design an optimised Fourier excitation trajectory for identification.
+    /// Design an optimised Fourier excitation trajectory for identification, or (--set N) a
+    /// whole identification set for any arm in its cell, with its runs manifest.
     Excite(excite::ExciteArgs),
     /// Identify base parameters (and motor losses) from the power in datasets.
     Identify(identify::IdentifyArgs),

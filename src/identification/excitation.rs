@@ -417,13 +417,13 @@ pub fn identifiable_columns(
     Ok(base.independent().to_vec())
 }
 
-/// Candidate poses drawn by [`rest_pose`] when the centre pose violates the workspace, and
-/// by [`standby_pose`].
-const REST_CANDIDATES: usize = 4000;
+/// Candidate poses drawn by [`rest_pose`] when the centre pose violates the workspace, by
+/// [`standby_pose`] and by [`crate::identification::excitation_set::centres::spread_centres`].
+pub(crate) const REST_CANDIDATES: usize = 4000;
 
 /// Each joint's range within its position limits less `margin` (rad), clipped to
 /// [-pi, pi]. Errors when a range is not wider than `2 margin`.
-fn rest_ranges(robot: &Robot, margin: f64) -> Result<Vec<(f64, f64)>> {
+pub(crate) fn rest_ranges(robot: &Robot, margin: f64) -> Result<Vec<(f64, f64)>> {
     robot
         .joints()
         .iter()
@@ -442,7 +442,7 @@ fn rest_ranges(robot: &Robot, margin: f64) -> Result<Vec<(f64, f64)>> {
 }
 
 /// A pose drawn uniformly within `ranges` (rad, one `(lo, hi)` per joint).
-fn random_pose(rng: &mut ChaCha8Rng, ranges: &[(f64, f64)]) -> Vec<f64> {
+pub(crate) fn random_pose(rng: &mut ChaCha8Rng, ranges: &[(f64, f64)]) -> Vec<f64> {
     ranges
         .iter()
         .map(|&(lo, hi)| rng.random_range(lo..hi))
@@ -454,7 +454,7 @@ fn random_pose(rng: &mut ChaCha8Rng, ranges: &[(f64, f64)]) -> Vec<f64> {
 /// spare. `poses`: scratch of one pose per link.
 /// With `column_top` (m), the base column ends there: a point higher than that by
 /// `base_radius` may be over the base axis (an arm held upright).
-fn clear_of_workspace(
+pub(crate) fn clear_of_workspace(
     robot: &Robot,
     q: &[f64],
     floor_z: f64,

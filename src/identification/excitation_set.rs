@@ -19,6 +19,15 @@
 //!   for the set with those already designed; every further round re-optimises each
 //!   excitation with all the others fixed. Each block is a CMA-ES run (crate `cmaes`) whose
 //!   population is evaluated in parallel; the result depends only on the seed.
+//!
+//! For any arm in its cell, [`arm::plan`] derives the members and limits, and [`export`]
+//! writes the designed set for the user to run ([`runs`]: the manifest `identify --runs`
+//! reads).
+
+pub mod arm;
+pub mod centres;
+pub mod export;
+pub mod runs;
 
 use std::time::Instant;
 
@@ -130,6 +139,12 @@ const PENALTY_SAMPLES: usize = 100;
 /// CMA-ES step size of the first round (rad) and of the refinement rounds.
 const SIGMA_FIRST: f64 = 0.1;
 const SIGMA_REFINE: f64 = 0.05;
+/// Weights of the limits' penalty in the objective: the first always, the next ones in turn
+/// while the last round leaves an excitation outside its limits (quadratic penalties let a
+/// strong criterion pull the optimum slightly outside, most where a cell's limits bind).
+const PENALTY_WEIGHTS: [f64; 3] = [1e3, 1e6, 1e9];
+/// Most halvings of a start point's amplitudes ([`SetProblem::within_limits`]).
+const START_HALVINGS: usize = 4;
 /// Added to the diagonal of the scaled information matrix (of unit diagonal).
 const RIDGE: f64 = 1e-9;
 
@@ -246,22 +261,118 @@ impl SetProblem<'_> {
         }
     }
 
-    fn objective(&self, k: usize, fixed: &DMatrix<f64>, x: &[f64]) -> f64 {
+    /// Criterion of the set with member `k` at `x` and the others' information `fixed`, plus
+    /// `weight` times the penalty of its limits (tightened).
+    fn objective(&self, k: usize, fixed: &DMatrix<f64>, x: &[f64], weight: f64) -> f64 {
         let Ok(traj) = self.trajectory(k, x) else {
             return 1e6;
         };
         let (info, penalty) = self.information(k, &traj, OPTIMISATION_TIGHTENING);
-        self.criterion(&(fixed + info)) + 1e3 * penalty
+        self.criterion(&(fixed + info)) + weight * penalty
+    }
+
+    /// Penalty of member `k`'s limits at `x`, not tightened (0: within every limit).
+    fn violation(&self, k: usize, x: &[f64]) -> Result<f64> {
+        Ok(self.information(k, &self.trajectory(k, x)?, 1.0).1)
+    }
+
+    /// CMA-ES step size `sigma` (rad) for member `k`, reduced where a coefficient step of
+    /// `sigma` at its highest harmonic would already exceed a joint's usable speed or
+    /// acceleration (slow cells): otherwise nearly every trial point is far outside the
+    /// limits and the optimiser learns nothing in its budget.
+    fn step_size(&self, k: usize, sigma: f64) -> f64 {
+        let o = self.opts;
+        let omega =
+            2.0 * std::f64::consts::PI * o.members[k].base_freq_hz * (o.harmonics - 1) as f64;
+        self.robot
+            .joints()
+            .iter()
+            .zip(&o.accel_limits)
+            .fold(1.0_f64, |scale, (j, &a)| {
+                let (v, a) = (j.limits.velocity.min(10.0), a);
+                scale
+                    .min(v * o.limit_fraction / (sigma * omega))
+                    .min(a * o.limit_fraction / (sigma * omega * omega))
+            })
+            * sigma
+    }
+
+    /// The start point `x` of member `k`, its amplitudes halved (at most
+    /// [`START_HALVINGS`] times) while it violates the limits: a start far outside them,
+    /// where a cell's limits are tight, costs the optimiser most of its evaluations.
+    fn within_limits(&self, k: usize, mut x: Vec<f64>) -> Result<Vec<f64>> {
+        let per = 2 * self.opts.harmonics - 1;
+        for _ in 0..START_HALVINGS {
+            if self.violation(k, &x)? == 0.0 {
+                break;
+            }
+            for (i, v) in x.iter_mut().enumerate() {
+                if i % per != 0 {
+                    *v *= 0.5;
+                }
+            }
+        }
+        Ok(x)
+    }
+
+    /// One block of the design: CMA-ES on member `k` from `x` (replaced by the best point
+    /// when it improves) with the others' information `fixed`. With `insist` (the last
+    /// round), a best point still outside the limits is optimised again with the heavier
+    /// penalty weights of [`PENALTY_WEIGHTS`]. Returns the evaluations spent.
+    fn optimise_block(
+        &self,
+        k: usize,
+        fixed: &DMatrix<f64>,
+        x: &mut Vec<f64>,
+        (sigma, seed): (f64, u64),
+        insist: bool,
+    ) -> Result<usize> {
+        let mut evaluations = 0;
+        for (attempt, &weight) in PENALTY_WEIGHTS.iter().enumerate() {
+            if attempt > 0 && (!insist || self.violation(k, x)? == 0.0) {
+                break;
+            }
+            let objective =
+                |v: &cmaes::DVector<f64>| self.objective(k, fixed, v.as_slice(), weight);
+            let mut state = cmaes::CMAESOptions::new(x.clone(), self.step_size(k, sigma))
+                .max_function_evals(self.opts.max_evals)
+                .seed(seed.wrapping_add(100 * attempt as u64))
+                .build(objective)
+                .map_err(|e| Error::Numerical(format!("CMA-ES options: {e:?}")))?;
+            let result = state.run_parallel();
+            evaluations += state.function_evals();
+            if let Some(b) = result.overall_best
+                && b.value < self.objective(k, fixed, x, weight)
+            {
+                *x = b.point.as_slice().to_vec();
+            }
+        }
+        Ok(evaluations)
     }
 }
 
-/// Design the identification set of `opts` for `robot` (see the module docs).
-///
-/// Errors: no members, a centre of the wrong length or outside the position limits, a
-/// non-positive frequency or rate, zero periods or rounds, fewer than 2 harmonics, a payload
-/// that is not physical, or a result that still violates a limit.
-pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
-    let start = Instant::now();
+/// `robot` with its position limits lifted: base parameters belong to the arm's structure,
+/// so they are found on states over whole turns, whatever narrower range a cell
+/// ([`crate::trajectory::cell::Cell::limit`]) leaves the joints (random states in a narrow
+/// range can make the regrouping numerically unreliable).
+fn structural(robot: &Robot) -> Result<Robot> {
+    let mut joints = robot.joints().to_vec();
+    for j in &mut joints {
+        j.limits.lower = f64::NEG_INFINITY;
+        j.limits.upper = f64::INFINITY;
+    }
+    Robot::new(
+        robot.name(),
+        robot.base().clone(),
+        joints,
+        robot.links().to_vec(),
+        *robot.flange(),
+        robot.flange_name(),
+    )
+}
+
+/// Refuse the options [`design_set`] cannot design with (see its errors).
+fn check_options(robot: &Robot, opts: &SetOptions) -> Result<()> {
     let n = robot.dof();
     if opts.members.is_empty() || opts.rounds == 0 || opts.harmonics < 2 {
         return Err(Error::InvalidInput(
@@ -293,8 +404,20 @@ pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
             )));
         }
     }
+    Ok(())
+}
+
+/// Design the identification set of `opts` for `robot` (see the module docs).
+///
+/// Errors: no members, a centre of the wrong length or outside the position limits, a
+/// non-positive frequency or rate, zero periods or rounds, fewer than 2 harmonics, a payload
+/// that is not physical, or a result that still violates a limit.
+pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
+    let start = Instant::now();
+    let n = robot.dof();
+    check_options(robot, opts)?;
     let layout = ParamLayout::new(robot, true, true);
-    let base = BaseParams::compute(robot, layout, &SamplingOptions::default())?;
+    let base = BaseParams::compute(&structural(robot)?, layout, &SamplingOptions::default())?;
     let drive = DriveTerms::from_urdf(robot);
     let nominal = opts
         .members
@@ -330,9 +453,12 @@ pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
         .enumerate()
         .map(|(k, m)| {
             let mut rng = ChaCha8Rng::seed_from_u64(opts.seed.wrapping_add(k as u64));
-            start_point(&m.centre, &problem.joints, opts.harmonics, &mut rng)
+            problem.within_limits(
+                k,
+                start_point(&m.centre, &problem.joints, opts.harmonics, &mut rng),
+            )
         })
-        .collect();
+        .collect::<Result<_>>()?;
     let infos = |xs: &[Vec<f64>]| -> Result<Vec<DMatrix<f64>>> {
         (0..count)
             .into_par_iter()
@@ -359,31 +485,27 @@ pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
         for k in 0..count {
             // Round 1 designs for the excitations already designed; later rounds for all.
             let fixed = sum(&info, Some(k), if round == 0 { k } else { count });
-            let objective = |x: &cmaes::DVector<f64>| problem.objective(k, &fixed, x.as_slice());
             let sigma = if round == 0 {
                 SIGMA_FIRST
             } else {
                 SIGMA_REFINE
             };
-            let mut state = cmaes::CMAESOptions::new(xs[k].clone(), sigma)
-                .max_function_evals(opts.max_evals)
-                .seed(
-                    opts.seed
-                        .wrapping_add(1000 * round as u64)
-                        .wrapping_add(k as u64),
-                )
-                .build(objective)
-                .map_err(|e| Error::Numerical(format!("CMA-ES options: {e:?}")))?;
-            let result = state.run_parallel();
-            evaluations += state.function_evals();
-            if let Some(b) = result.overall_best {
-                let current = problem.objective(k, &fixed, &xs[k]);
-                if b.value < current {
-                    xs[k] = b.point.as_slice().to_vec();
-                    info[k] = problem
-                        .information(k, &problem.trajectory(k, &xs[k])?, 1.0)
-                        .0;
-                }
+            let seed = opts
+                .seed
+                .wrapping_add(1000 * round as u64)
+                .wrapping_add(k as u64);
+            let before = xs[k].clone();
+            evaluations += problem.optimise_block(
+                k,
+                &fixed,
+                &mut xs[k],
+                (sigma, seed),
+                round + 1 == opts.rounds,
+            )?;
+            if xs[k] != before {
+                info[k] = problem
+                    .information(k, &problem.trajectory(k, &xs[k])?, 1.0)
+                    .0;
             }
         }
         criterion_by_round.push(problem.criterion(&sum(&info, None, count)));

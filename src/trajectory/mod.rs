@@ -6,8 +6,11 @@
 //! point-to-point motions, seeded random generators for bulk datasets, and linear TCP moves
 //! ([`linear_move`], timed by [`s_curve`]) for tasks such as the paper's pick and place
 //! ([`task`]).
-//! [`limits::check_limits`] samples any trajectory against the robot's joint limits.
+//! [`limits::check_limits`] samples any trajectory against the robot's joint limits, as
+//! narrowed by a robot cell ([`cell`]). [`table`] and [`urscript`] export a trajectory for a
+//! controller.
 
+pub mod cell;
 pub mod fourier;
 pub mod limits;
 pub mod linear_move;
@@ -15,7 +18,9 @@ pub mod point_to_point;
 pub mod random;
 pub mod s_curve;
 pub mod sampled;
+pub mod table;
 pub mod task;
+pub mod urscript;
 
 /// A joint-space reference trajectory.
 pub trait Trajectory: Send + Sync {
