@@ -1,38 +1,68 @@
 #!/usr/bin/env bash
-# Walk-through: from a robot's logs to a model, a task prediction, the identified robot as a
-# twin, and a look at it in Rerun. Run from the repository root:
+# The real-robot journey on a Universal Robots UR5, end to end: design an identification set
+# for the robot's cell, run it on the robot, identify from the runs' logs, price a plan nobody
+# has run, and find the cheapest timing of a task. Run from anywhere:
 #   bash examples/your_robot.sh [WORKDIR]
-# Here the twin stands in for your robot and writes its logs as a data logger would (time,
-# joint positions, DC-bus power); with your own arm, start at step 1 with your CSV/Parquet
-# logs and a column map (docs/guide/your-robot.md, docs/guide/log-columns.md, `--columns ur-rtde`).
+# Here the twin stands in for your robot at step 2 and writes its logs as a data logger would
+# (time, joint positions, DC-bus power at 25 Hz); with your own UR, run the URScript programs
+# of step 1 on the controller, record RTDE (docs/guide/your-robot.md#universal-robots-cb3-e-series)
+# and save each log where runs.toml says. `tests/your_robot.rs` runs this script in CI.
 set -euo pipefail
-W=${1:-$(mktemp -d)}
+cd "$(dirname "$0")/.."
+W=$(realpath -m "${1:-$(mktemp -d)}")
 mkdir -p "$W"
-cargo build --release --quiet
-P=./target/release/powertwin
+if [ -n "${POWERTWIN:-}" ]; then
+  P=$POWERTWIN
+else
+  cargo build --release --quiet
+  P=./target/release/powertwin
+fi
+ROBOT=(--robot models/ur5.urdf --drive models/ur5.drive.toml)
+GRIPPER=models/robotiq_2f85.payload.toml
+LOADED="$GRIPPER+models/load_2kg.payload.toml"
 
-# 0. "Your robot": three designed excitations (10 s periods at 0.1 Hz) carrying the 1.32 kg
-#    tool, run on the realistic twin (unmodelled losses, DC-bus power meter, 10 Hz log).
-for s in 1 2 3; do
-  $P excite --seed "$s" --periods 2 --evals 300 --out "$W/ex$s.csv" > /dev/null
-  $P simulate --trajectory "$W/ex$s.csv" --payload tool --format csv --noise-seed "$s" \
-    --out "$W/run$s" > /dev/null
+# 0. The cell: a table 2 cm below the robot's base, half the rated joint speeds.
+cat > "$W/cell.toml" <<'EOF'
+floor_z_m = -0.02
+floor_margin_m = 0.05
+speed_scaling = 0.5
+EOF
+
+# 1. An identification set: six 20 s excitations designed together, three with the bare
+#    flange and three carrying the gripper and a 2 kg part, as URScript programs and CSVs,
+#    with the runs manifest to fill.
+LOADS=(none none none "$LOADED" "$LOADED" "$LOADED")
+$P excite "${ROBOT[@]}" --set 6 --loads "$(IFS=,; echo "${LOADS[*]}")" --cell "$W/cell.toml" \
+  --duration 20 --format urscript --out "$W/set"
+
+# 2. "Your robot" runs each excitation with its load (the realistic twin: unmodelled losses,
+#    a controller whose model is 10 % wrong, DC-bus power, 25 Hz). The logs go where the
+#    manifest says; the manifest's power default is the DC bus.
+mkdir -p "$W/set/logs"
+for k in 1 2 3 4 5 6; do
+  id=$(printf "%02d" "$k")
+  load=${LOADS[$((k - 1))]}
+  payload=()
+  if [ "$load" != none ]; then payload=(--payload "$GRIPPER" --payload models/load_2kg.payload.toml); fi
+  $P simulate "${ROBOT[@]}" --trajectory "$W/set/excitation_$id.csv" "${payload[@]}" \
+    --sample-rate 25 --substeps 3 --noise-seed "$k" --format csv --out "$W/twin/run_$id" > /dev/null
+  cp "$W/twin/run_$id/measured.csv" "$W/set/logs/excitation_$id.csv"
 done
+sed -i 's/^# *power = .*/power = "bus"/' "$W/set/runs.toml"
 
-# 1. Identify from the logs alone: measured.csv holds t_s, q1_rad.., p_elec1_W.., p_total_W;
-#    the power is the DC bus (never negative) and the tool is known. The estimator is chosen
-#    by cross-validation; the identified robot is exported as URDF + drive file.
-$P identify --log "$W"/run{1,2,3}/measured.csv --power bus --payload tool --base-freq 0.1 \
-  --out "$W/model.json" --export-urdf "$W/robot.urdf" --export-drive "$W/robot.drive.toml"
+# 3. Identify from the logs alone: the URDF and drive file are the prior for what the runs
+#    cannot see; every 4th run is held out first and predicted (out of sample, on this robot).
+$P identify "${ROBOT[@]}" --runs "$W/set/runs.toml" --out "$W/model.json" --json > "$W/identify.json"
 
-# 2. What does a task cost? The pick-and-place scenario at 0.5 m/s with 2 kg, predicted by
-#    the model from the plan beside the twin.
-$P sweep --model "$W/model.json" --speeds 0.5 --loads 2 --out "$W/sweep"
+# 4. What does a plan cost that nobody has run? A motion as a joint trajectory CSV, and the
+#    UR5 pick and place at 0.5 m/s with 2 kg, priced by the model with their 95 % intervals.
+$P excite --robot models/ur5.urdf --seed 9 --evals 200 --out "$W/plan.csv" > /dev/null
+$P predict --robot models/ur5.urdf --model "$W/model.json" --trajectory "$W/plan.csv"
+$P predict --robot models/ur5.urdf --model "$W/model.json" \
+  --scenario scenarios/ur5_pick_and_place.toml --speed 0.5 --load 2
 
-# 3. The identified robot as a twin of its own, on a motion it was not identified on,
-#    recorded for the Rerun viewer (`rerun "$W/twin_b.rrd"`; rerun-sdk 0.36).
-$P excite --seed 4 --periods 1 --evals 300 --out "$W/ex4.csv" > /dev/null
-$P simulate --robot "$W/robot.urdf" --drive "$W/robot.drive.toml" --truth exact \
-  --trajectory "$W/ex4.csv" --out "$W/twin_b" --save "$W/twin_b.rrd" > /dev/null
-$P predict --model "$W/model.json" --data "$W/twin_b"
-echo "Everything is in $W (model.json, robot.urdf, robot.drive.toml, sweep/, twin_b.rrd)."
+# 5. The cheapest timing of the task in the same cycle time, priced by the model alone: the
+#    twin is not your robot, so no twin checks it (--twin none).
+$P optimize "${ROBOT[@]}" --model "$W/model.json" --scenario scenarios/ur5_pick_and_place.toml \
+  --speed 0.5 --load 2 --twin none --out "$W/optimize"
+echo "Everything is in $W (set/, model.json, identify.json, optimize/)."

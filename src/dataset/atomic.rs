@@ -14,7 +14,8 @@ use crate::error::{Error, Result};
 /// The file whose presence marks an existing directory as a dataset that may be replaced.
 pub(crate) const MARKER: &str = "meta.json";
 
-/// Create (or replace) `dir` with the files that `fill` writes into the directory it is given.
+/// Create (or replace) `dir` (and its missing parents) with the files that `fill` writes into
+/// the directory it is given.
 ///
 /// An existing `dir` is replaced only if it is an empty directory or contains `meta.json`
 /// (so that a mistyped path never deletes unrelated files); anything else is refused with
@@ -23,6 +24,8 @@ pub(crate) const MARKER: &str = "meta.json";
 pub(crate) fn write_dir(dir: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let (parent, name) = split(dir)?;
     check_replaceable(dir)?;
+    // Missing parents are created, as `mkdir -p` would.
+    std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
     let old = parent.join(format!(".{name}.old-{}", std::process::id()));
     // A leftover of a crashed run that had our process id.
     remove_if_present(&old)?;
