@@ -320,11 +320,19 @@ fn a_failed_write_leaves_no_dataset() {
     let scratch = Scratch::new("failed");
     let d = dataset(5, 50, 10);
 
-    // Parent directory missing: an I/O error naming it, nothing created.
-    let dir = scratch.join("missing/ds");
+    // A parent that cannot be a directory (a file is in the way): an I/O error naming it,
+    // nothing created. (Missing parents are created, as `mkdir -p` would.)
+    std::fs::write(scratch.join("a_file"), b"not a directory").unwrap();
+    let dir = scratch.join("a_file/ds");
     let e = d.write(&dir, Format::Parquet).unwrap_err();
     assert!(matches!(e, Error::Io { .. }), "{e}");
+    assert!(e.to_string().contains("a_file"), "{e}");
     assert!(!dir.exists());
+    let created = scratch.join("missing/parents/ds");
+    d.write(&created, Format::Csv).unwrap();
+    assert!(created.join("meta.json").exists());
+    std::fs::remove_file(scratch.join("a_file")).unwrap();
+    std::fs::remove_dir_all(scratch.join("missing")).unwrap();
 
     // A bad value in the measured table, found after truth.* is already written.
     let mut bad = d.clone();
