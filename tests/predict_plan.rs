@@ -4,9 +4,8 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
-use common::{run as powertwin, run_ok, tmp};
+use common::{run as powertwin, tmp};
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::io::table::Table;
 use powertwin::trajectory::sampled::Sampled;
@@ -15,50 +14,10 @@ fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
 }
 
-/// An excitation written by `excite` (all columns) and a model identified from its twin run
-/// (the cheapest route of tests/identify_cli.rs), built once for the binary's tests.
+/// An excitation written by `excite` and a model identified from its twin run
+/// ([`common::efficiency_model`]).
 fn fixture() -> &'static (PathBuf, PathBuf) {
-    static FIXTURE: OnceLock<(PathBuf, PathBuf)> = OnceLock::new();
-    FIXTURE.get_or_init(|| {
-        let (traj, data, model) = (tmp("ex.csv"), tmp("ds"), tmp("model.json"));
-        let (traj_s, data_s, model_s) = (s(&traj), s(&data), s(&model));
-        run_ok(&[
-            "excite",
-            "--joints",
-            "1-6",
-            "--periods",
-            "3",
-            "--starts",
-            "1",
-            "--evals",
-            "800",
-            "--out",
-            &traj_s,
-        ]);
-        run_ok(&[
-            "simulate",
-            "--trajectory",
-            &traj_s,
-            "--out",
-            &data_s,
-            "--motor",
-            "efficiency",
-            "--noise",
-            "none",
-        ]);
-        run_ok(&[
-            "identify",
-            "--data",
-            &data_s,
-            "--method",
-            "total",
-            "--base-freq",
-            "0.1",
-            "--out",
-            &model_s,
-        ]);
-        (traj, model)
-    })
+    common::efficiency_model()
 }
 
 fn read_model(path: &Path) -> PowerModel {

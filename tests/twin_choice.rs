@@ -5,7 +5,6 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use common::{run as powertwin, run_ok, tmp};
 use powertwin::dynamics::ParamLayout;
@@ -18,49 +17,9 @@ fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
 }
 
-/// A model identified from one excitation run on the realistic twin with the efficiency
-/// motor model (the fixture of tests/predict_plan.rs), built once for the binary's tests.
+/// The model of tests/predict_plan.rs ([`common::efficiency_model`]).
 fn model() -> &'static PathBuf {
-    static MODEL: OnceLock<PathBuf> = OnceLock::new();
-    MODEL.get_or_init(|| {
-        let (traj, data, model) = (tmp("ex.csv"), tmp("ds"), tmp("model.json"));
-        run_ok(&[
-            "excite",
-            "--joints",
-            "1-6",
-            "--periods",
-            "3",
-            "--starts",
-            "1",
-            "--evals",
-            "800",
-            "--out",
-            &s(&traj),
-        ]);
-        run_ok(&[
-            "simulate",
-            "--trajectory",
-            &s(&traj),
-            "--out",
-            &s(&data),
-            "--motor",
-            "efficiency",
-            "--noise",
-            "none",
-        ]);
-        run_ok(&[
-            "identify",
-            "--data",
-            &s(&data),
-            "--method",
-            "total",
-            "--base-freq",
-            "0.1",
-            "--out",
-            &s(&model),
-        ]);
-        model
-    })
+    &common::efficiency_model().1
 }
 
 /// `sweep --json` at 0.5 and 1 m/s with load 2 kg on `twin` (and `extra` options) into

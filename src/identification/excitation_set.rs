@@ -361,14 +361,7 @@ fn structural(robot: &Robot) -> Result<Robot> {
         j.limits.lower = f64::NEG_INFINITY;
         j.limits.upper = f64::INFINITY;
     }
-    Robot::new(
-        robot.name(),
-        robot.base().clone(),
-        joints,
-        robot.links().to_vec(),
-        *robot.flange(),
-        robot.flange_name(),
-    )
+    robot.with_joints(joints)
 }
 
 /// Refuse the options [`design_set`] cannot design with (see its errors).

@@ -290,6 +290,19 @@ impl Robot {
             .collect()
     }
 
+    /// A copy with its joints replaced by `joints` (the same chain with other limits or
+    /// friction, e.g. a cell's narrower ranges), validated as [`Robot::new`] validates.
+    pub fn with_joints(&self, joints: Vec<Joint>) -> Result<Robot> {
+        Robot::new(
+            self.name(),
+            self.base().clone(),
+            joints,
+            self.links().to_vec(),
+            *self.flange(),
+            self.flange_name(),
+        )
+    }
+
     /// A copy with link `i`'s mass properties replaced (e.g. link 6 plus a payload).
     pub fn with_link_inertia(&self, i: usize, inertia: RigidInertia) -> Result<Robot> {
         let mut r = self.clone();

@@ -196,14 +196,7 @@ impl Cell {
         for joint in &mut joints {
             joint.limits.velocity *= self.speed_scaling;
         }
-        Robot::new(
-            robot.name(),
-            robot.base().clone(),
-            joints,
-            robot.links().to_vec(),
-            *robot.flange(),
-            robot.flange_name(),
-        )
+        robot.with_joints(joints)
     }
 
     /// Check `traj` every `dt` s against the cell: the position and velocity limits of

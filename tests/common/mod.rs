@@ -181,3 +181,52 @@ pub fn model_power_samples(
     }
     (s, y)
 }
+
+/// An excitation written by `excite` (all columns, 3 periods) and a model identified from its
+/// run on the realistic twin with the efficiency motor model and no sensor noise (`identify
+/// --method total`, the cheapest route): `(trajectory CSV, model.json)` in this binary's
+/// scratch directory, built once per test binary.
+pub fn efficiency_model() -> &'static (std::path::PathBuf, std::path::PathBuf) {
+    static FIXTURE: std::sync::OnceLock<(std::path::PathBuf, std::path::PathBuf)> =
+        std::sync::OnceLock::new();
+    FIXTURE.get_or_init(|| {
+        let (traj, data, model) = (tmp("ex.csv"), tmp("ds"), tmp("model.json"));
+        let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+        run_ok(&[
+            "excite",
+            "--joints",
+            "1-6",
+            "--periods",
+            "3",
+            "--starts",
+            "1",
+            "--evals",
+            "800",
+            "--out",
+            &s(&traj),
+        ]);
+        run_ok(&[
+            "simulate",
+            "--trajectory",
+            &s(&traj),
+            "--out",
+            &s(&data),
+            "--motor",
+            "efficiency",
+            "--noise",
+            "none",
+        ]);
+        run_ok(&[
+            "identify",
+            "--data",
+            &s(&data),
+            "--method",
+            "total",
+            "--base-freq",
+            "0.1",
+            "--out",
+            &s(&model),
+        ]);
+        (traj, model)
+    })
+}
