@@ -385,6 +385,9 @@ fn link_covariance(s: &[f64; 10], total_mass: f64, w: &PriorWidths) -> DMatrix<f
     let ic = io - m * (c.norm_squared() * Matrix3::identity() - c * c.transpose());
     let sd_m = (w.mass_rel * m).max(MASS_FLOOR_REL * total_mass);
     let sd_i = w.inertia_rel * (ic.trace() / 3.0).max((m + sd_m) * w.com_m * w.com_m);
+    // A link the URDF gives (almost) no mass still gets first moments of its possible mass:
+    // otherwise their prior would be exactly zero and the covariance singular.
+    let m_c = m.max(sd_m);
     // Jacobian columns: d/dm, d/dc_x, d/dc_y, d/dc_z, d/dIc (6 entries), each scaled by its
     // standard deviation.
     let mut jac = DMatrix::zeros(10, 10);
@@ -406,9 +409,9 @@ fn link_covariance(s: &[f64; 10], total_mass: f64, w: &PriorWidths) -> DMatrix<f
     let dcz = [2.0 * cz, 2.0 * cz, 0.0, 0.0, -cx, -cy, 0.0, 0.0, 1.0, 0.0];
     for r in 0..10 {
         jac[(r, 0)] = dm[r] * sd_m;
-        jac[(r, 1)] = m * dcx[r] * w.com_m;
-        jac[(r, 2)] = m * dcy[r] * w.com_m;
-        jac[(r, 3)] = m * dcz[r] * w.com_m;
+        jac[(r, 1)] = m_c * dcx[r] * w.com_m;
+        jac[(r, 2)] = m_c * dcy[r] * w.com_m;
+        jac[(r, 3)] = m_c * dcz[r] * w.com_m;
     }
     for e in 0..6 {
         jac[(e, 4 + e)] = sd_i;
@@ -479,6 +482,14 @@ mod tests {
                 "parameter {k}: {a} vs sampled {b}"
             );
         }
+    }
+
+    /// A link the URDF gives no mass or inertia still has a positive-definite prior.
+    #[test]
+    fn a_massless_link_has_a_positive_definite_prior() {
+        let cov = link_covariance(&[0.0; 10], 20.0, &PriorWidths::default());
+        let min = cov.symmetric_eigen().eigenvalues.min();
+        assert!(min > 0.0, "smallest eigenvalue {min}");
     }
 
     #[test]
