@@ -36,6 +36,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for rate_hz in [100.0, 1000.0] {
         let rig = Rig {
+            plant: None,
             robot: &robot,
             urdf: Urdf::inline(builtin::IRB1200_URDF),
             drive: &drive,

@@ -121,6 +121,7 @@ fn run(rig: &Rig, traj: &dyn Trajectory, run: u64) -> Dataset {
         trajectory: traj,
         trajectory_description: serde_json::json!({"run": run}),
         trajectory_seed: None,
+        family: None,
     })
     .unwrap();
     assert!(
@@ -172,6 +173,7 @@ fn chain(arm: &Arm, bounds: &Bounds) {
     // Simulate: the twin with default noise, 10 Hz logging, 3 Rapier substeps per 1 ms step
     // (as `reproduce`).
     let rig = Rig {
+        plant: None,
         robot: &robot,
         urdf,
         drive: &drive,

@@ -248,6 +248,7 @@ fn twin_of_the_identified_robot_uses_the_energy_of_the_original() {
     let robot = &s.robot;
     let drive_a = drive(robot);
     let twin_a = Rig {
+        plant: None,
         robot,
         urdf: Urdf::inline(builtin::IRB1200_URDF),
         drive: &drive_a,
@@ -322,6 +323,7 @@ fn twin_of_the_identified_robot_uses_the_energy_of_the_original() {
         );
     }
     let twin_b = Rig {
+        plant: None,
         robot: &robot_b,
         urdf: Urdf::inline(&urdf_text),
         drive: &drive_b,

@@ -147,10 +147,12 @@ fn meta(robot: &Robot, truth: &Recording, measured: &Measured) -> Meta {
                 ..NoiseSettings::default()
             },
             seed: u64::MAX,
+            ..SensorSettings::default()
         },
         trajectory_seed: None,
         trajectory: serde_json::json!({"kind": "fourier", "harmonics": 5, "period_s": 10.0}),
         summary: Summary::of(truth, measured),
+        family: None,
     }
 }
 

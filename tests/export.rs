@@ -154,6 +154,7 @@ fn identify_exports_the_identified_robot() {
     let robot = common::irb1200();
     let drive = Drive::from_toml_str(builtin::IRB1200_DRIVE, "drive", &robot).unwrap();
     let rig = Rig {
+        plant: None,
         robot: &robot,
         urdf: Urdf::inline(builtin::IRB1200_URDF),
         drive: &drive,

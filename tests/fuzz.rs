@@ -508,6 +508,7 @@ fn written_dataset(format: Format, name: &str) -> (PathBuf, Vec<(String, Vec<u8>
         trajectory: &traj,
         trajectory_description: serde_json::json!({"kind": "fuzz seed"}),
         trajectory_seed: None,
+        family: None,
     })
     .unwrap();
     let dir = common::tmp(name);

@@ -532,6 +532,7 @@ fn twin_run() -> &'static (Dataset, Vec<f64>) {
         joints[0].standby_power += CABINET_W;
         let drive = Drive::new(&robot, joints).unwrap();
         let rig = Rig {
+            plant: None,
             robot: &robot,
             urdf: Urdf::inline(builtin::IRB1200_URDF),
             drive: &drive,

@@ -36,6 +36,7 @@ fn ur5() -> (Robot, Drive) {
 /// recording would be.
 fn rig<'a>(robot: &'a Robot, drive: &'a Drive) -> Rig<'a> {
     Rig {
+        plant: None,
         robot,
         urdf: Urdf::inline(&std::fs::read_to_string(UR5_URDF).unwrap()),
         drive,

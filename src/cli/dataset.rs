@@ -53,6 +53,12 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
             powertwin::model::builtin::payload(DEFAULT_TOOL)?
         }
     };
+    if setup.plant.is_some() {
+        anyhow::bail!(
+            "dataset varies the drives of every item itself; for a robot of the family use \
+             simulate --truth family:SEED, or validate --family N"
+        );
+    }
     let spec = BulkSpec {
         robot: &setup.robot,
         urdf: setup.urdf.clone(),

@@ -32,6 +32,7 @@ mod progress;
 mod reproduce;
 mod simulate;
 mod sweep;
+mod truth;
 mod validate;
 #[cfg(feature = "viz")]
 mod viz;
@@ -45,17 +46,18 @@ use powertwin::Robot;
 use powertwin::dataset::meta::Urdf;
 use powertwin::dataset::{Dataset, Format};
 use powertwin::identification::model::{PowerModel, check_schema_version};
-use powertwin::measurement::PowerSignal;
 use powertwin::model::builtin;
 use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
 use powertwin::model::urdf::{LoadOptions, load_file, load_str};
+use powertwin::twin::TwinConfig;
+use powertwin::twin::family::Plant;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
-use powertwin::twin::{Fidelity, TwinConfig};
 use powertwin::validation::sweep::Cell;
 use rayon::prelude::*;
+pub use truth::TruthArgs;
 
 /// Energy digital twin of an industrial robot: identify dynamic and drive parameters from
 /// motor power and predict the energy of a task (Liu et al. 2018).
@@ -205,43 +207,6 @@ pub struct TwinArgs {
     format: Format,
 }
 
-/// How close the twin is to the identified model's structure.
-#[derive(Debug, Args)]
-pub struct TruthArgs {
-    /// Twin fidelity. `realistic`: the drives' unmodelled effects (Stribeck and
-    /// load-dependent gear friction in the physics, iron loss; see the drive file), a
-    /// controller whose nominal model is 10 % wrong, and DC-bus power (braking energy burnt
-    /// in the brake resistor). `exact`: the structure an identified model has, the
-    /// controller knows the true model, the motor sum is measured.
-    #[arg(long, default_value = "realistic", value_name = "exact|realistic")]
-    pub truth: Fidelity,
-    /// Relative error of the controller's nominal model [default: 0.1 realistic, 0 exact].
-    #[arg(long, value_name = "REL")]
-    pub nominal_error: Option<f64>,
-    /// What the power meter measures: `total` (motor sum, RobotStudio's signal) or `bus`
-    /// (DC bus, never negative) [default: bus realistic, total exact].
-    #[arg(long, value_name = "total|bus")]
-    pub power_signal: Option<PowerSignal>,
-}
-
-impl TruthArgs {
-    /// The controller's nominal-model error.
-    pub fn nominal_error(&self) -> f64 {
-        self.nominal_error.unwrap_or(match self.truth {
-            Fidelity::Realistic => 0.1,
-            Fidelity::Exact => 0.0,
-        })
-    }
-
-    /// The logged power signal.
-    pub fn power_signal(&self) -> PowerSignal {
-        self.power_signal.unwrap_or(match self.truth {
-            Fidelity::Realistic => PowerSignal::Bus,
-            Fidelity::Exact => PowerSignal::Total,
-        })
-    }
-}
-
 /// A loaded twin setup.
 pub struct Setup {
     /// The robot.
@@ -256,6 +221,9 @@ pub struct Setup {
     pub twin: TwinConfig,
     /// Logger settings.
     pub sensor: SensorSettings,
+    /// The robot of the family the twin simulates instead of the files (`--truth
+    /// family:SEED`).
+    pub plant: Option<Plant>,
 }
 
 impl Setup {
@@ -267,11 +235,17 @@ impl Setup {
             drive: &self.drive,
             twin: self.twin.clone(),
             sensor: self.sensor,
+            plant: self.plant.as_ref(),
         }
     }
 }
 
 impl TwinArgs {
+    /// The truth options.
+    pub fn truth_args(&self) -> &TruthArgs {
+        &self.truth
+    }
+
     /// Table format of the datasets.
     pub fn format(&self) -> Format {
         self.format
@@ -314,7 +288,7 @@ impl TwinArgs {
             motor: self.motor,
             nominal_error: self.truth.nominal_error(),
             nominal_seed: self.noise_seed,
-            fidelity: self.truth.truth,
+            fidelity: self.truth.fidelity(),
             ..TwinConfig::default()
         };
         twin.physics.validate()?;
@@ -324,7 +298,9 @@ impl TwinArgs {
             power_signal: self.truth.power_signal(),
             noise,
             seed: self.noise_seed,
+            ..SensorSettings::default()
         };
+        let plant = self.truth.plant(&robot, &drive, &twin, &sensor)?;
         Ok(Setup {
             robot,
             urdf,
@@ -332,6 +308,7 @@ impl TwinArgs {
             payload,
             twin,
             sensor,
+            plant,
         })
     }
 }

@@ -18,14 +18,15 @@ use powertwin::report::plot::write_chart;
 use powertwin::report::results::{Results, Settings};
 use powertwin::report::summary::{DEFAULT_RUN, results_markdown};
 use powertwin::trajectory::task::Scenario;
+use powertwin::twin::TwinConfig;
 use powertwin::twin::motor::MotorModel;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
-use powertwin::twin::{Fidelity, TwinConfig};
 use powertwin::validation::reproduce::{Outcome, Plan, StageTime, run as run_plan};
 use powertwin::validation::rig::Rig;
 
 use crate::cli::progress::Bars;
+use crate::cli::truth::Truth;
 use crate::cli::{TruthArgs, emit, noise_settings, sweep_name, write_all};
 
 /// Rapier substeps per physics step unless `--substeps` says otherwise.
@@ -103,21 +104,24 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         motor: args.motor,
         nominal_error: args.truth.nominal_error(),
         nominal_seed: args.noise_seed,
-        fidelity: args.truth.truth,
+        fidelity: args.truth.fidelity(),
         ..TwinConfig::default()
     };
     twin.physics.validate()?;
+    let sensor = SensorSettings {
+        noise,
+        power_signal: args.truth.power_signal(),
+        seed: args.noise_seed,
+        ..SensorSettings::default()
+    };
+    let plant = args.truth.plant(&robot, &drive, &twin, &sensor)?;
     let rig = Rig {
+        plant: plant.as_ref(),
         robot: &robot,
         urdf: Urdf::inline(builtin::IRB1200_URDF),
         drive: &drive,
         twin,
-        sensor: SensorSettings {
-            noise,
-            power_signal: args.truth.power_signal(),
-            seed: args.noise_seed,
-            ..SensorSettings::default()
-        },
+        sensor,
     };
     let mut plan = Plan::irb1200(args.quick)?;
     if let Some(path) = &args.scenario {
@@ -185,12 +189,12 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let settings = Settings {
         robot: robot.name().to_string(),
         motor_model: args.motor.name().to_string(),
-        truth: format!("{:?}", args.truth.truth).to_lowercase(),
-        power_signal: rig.sensor.power_signal.name().to_string(),
+        truth: args.truth.truth.to_string(),
+        power_signal: rig.logger().power_signal.name().to_string(),
         dt_s: rig.twin.physics.dt,
         substeps: rig.twin.physics.substeps,
-        sample_rate_hz: rig.sensor.rate_hz,
-        noise: rig.sensor.noise != NoiseSettings::NONE,
+        sample_rate_hz: rig.logger().rate_hz,
+        noise: rig.logger().noise != NoiseSettings::NONE,
         noise_seed: args.noise_seed,
         quick: args.quick,
     };
@@ -223,8 +227,11 @@ fn command_line(args: &ReproduceArgs) -> String {
     if args.motor != MotorModel::Pmsm {
         line.push_str(&format!(" --motor {}", args.motor.name()));
     }
-    if args.truth.truth != Fidelity::Realistic {
-        line.push_str(" --truth exact");
+    if args.truth.truth != Truth::Realistic {
+        line.push_str(&format!(" --truth {}", args.truth.truth));
+    }
+    if let Some(p) = &args.truth.family_table {
+        line.push_str(&format!(" --family-table {}", p.display()));
     }
     if let Some(e) = args.truth.nominal_error {
         line.push_str(&format!(" --nominal-error {e}"));

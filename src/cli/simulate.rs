@@ -58,18 +58,20 @@ pub fn run(args: &SimulateArgs) -> Result<ExitCode> {
         .into_iter()
         .collect();
     let start = Instant::now();
+    let rig = setup.rig();
     let (dataset, report) = simulate(&RunSpec {
-        robot: &setup.robot,
+        robot: rig.true_robot(),
         urdf: setup.urdf.clone(),
-        drive: &setup.drive,
+        drive: rig.true_drive(),
         events: &events,
         brakes: &[],
-        twin: setup.twin.clone(),
-        sensor: setup.sensor,
+        twin: setup.plant.as_ref().map_or(&setup.twin, |p| &p.twin).clone(),
+        sensor: *rig.logger(),
         trajectory: &traj,
         trajectory_description: json!({"kind": "sampled", "file": args.trajectory.display().to_string(),
             "interpolation": format!("{:?}", traj.interpolation()), "start_time_s": traj.start_time()}),
         trajectory_seed: None,
+        family: setup.plant.as_ref().map(|p| &p.draw),
     })
     .with_context(|| format!("simulating {}", args.trajectory.display()))?;
     let sim_wall = start.elapsed().as_secs_f64();

@@ -5,10 +5,15 @@ use std::process::ExitCode;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use powertwin::validation::family::{Family, FamilyOptions};
 use powertwin::validation::heldout::{self, HeldoutOptions};
+use powertwin::validation::idset::IdSetOptions;
 
 use crate::cli::progress::Bars;
-use crate::cli::{TwinArgs, emit, read_model, write_all};
+use crate::cli::{Setup, TwinArgs, emit, read_model, write_all};
+
+/// Default seed of the held-out motions.
+const HELDOUT_SEED: u64 = 90_210;
 
 /// Arguments of `validate`.
 ///
@@ -19,19 +24,29 @@ use crate::cli::{TwinArgs, emit, read_model, write_all};
 /// (the URDF with the data-sheet efficiency). Prints median / 95th percentile / worst of the
 /// energy error, the error above standby, the mean-power error, the power RMSE and the
 /// coverage of the 95 % intervals; with --out, writes heldout.json and the datasets.
+///
+/// With --family N instead of --model: N robots we did not build, drawn around the URDF and
+/// drive file (see --truth family:SEED), each identified the way a user would (the
+/// identification set run on it, cross-validated; the files are all identification sees) and
+/// judged on --count held-out motions from each of two seeds; prints each robot and the
+/// pooled figures, and with --out writes family.json.
 #[derive(Debug, Args)]
 pub struct ValidateArgs {
     #[command(flatten)]
     twin: TwinArgs,
     /// Identified model (`identify --out`, or `reproduce`'s model.json).
-    #[arg(long, value_name = "MODEL.json")]
-    model: PathBuf,
-    /// Number of held-out motions.
-    #[arg(long, default_value_t = 30)]
-    count: usize,
-    /// Seed of the motions (keep it apart from the identification data's).
-    #[arg(long, default_value_t = 90_210)]
-    seed: u64,
+    #[arg(long, value_name = "MODEL.json", required_unless_present = "family")]
+    model: Option<PathBuf>,
+    /// Draw N robots from the family of truths and identify and judge each (no --model).
+    #[arg(long, value_name = "N", conflicts_with = "model")]
+    family: Option<usize>,
+    /// Number of held-out motions [default: 30; 12 per seed with --family].
+    #[arg(long)]
+    count: Option<usize>,
+    /// Seed of the motions (keep it apart from the identification data's) [default: 90210];
+    /// with --family, the seed of the family [default: 1] (robot r's family seed is printed).
+    #[arg(long)]
+    seed: Option<u64>,
     /// Largest payload, kg [default: the drive file's rated payload (rated_payload_kg; the
     /// IRB 1200's 7 kg)].
     #[arg(long)]
@@ -44,10 +59,16 @@ pub struct ValidateArgs {
     json: bool,
 }
 
+/// Held-out motion sets per family robot.
+const FAMILY_HELDOUT_SEEDS: usize = 2;
+
 /// Run `validate`.
 pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
-    let model = read_model(&args.model, &setup.robot)?;
+    let Some(model_path) = &args.model else {
+        return family(args, &setup);
+    };
+    let model = read_model(model_path, &setup.robot)?;
     let rated = setup.drive.rated_payload_kg();
     let Some(max_payload) = args.max_payload.or(rated) else {
         anyhow::bail!(
@@ -59,13 +80,14 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
         anyhow::bail!("--max-payload {max_payload} must be a positive mass in kg");
     }
     powertwin::model::payload::check_rated(max_payload, rated, "--max-payload")?;
-    if args.count == 0 {
+    let count = args.count.unwrap_or(30);
+    if count == 0 {
         anyhow::bail!("--count must be at least 1");
     }
     let rig = setup.rig();
     let opts = HeldoutOptions {
-        seed: args.seed,
-        ..HeldoutOptions::for_robot(&setup.robot, args.count, max_payload)?
+        seed: args.seed.unwrap_or(HELDOUT_SEED),
+        ..HeldoutOptions::for_robot(&setup.robot, count, max_payload)?
     };
     let bars = Bars::new();
     let (h, datasets) = heldout::run(&rig, &model, &opts, &bars)?;
@@ -149,4 +171,117 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     );
     emit(&o)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// `validate --family N`.
+fn family(args: &ValidateArgs, setup: &Setup) -> Result<ExitCode> {
+    let robots = args.family.unwrap_or(0);
+    if robots == 0 {
+        anyhow::bail!("--family {robots}: give at least 1 robot");
+    }
+    if setup.plant.is_some() {
+        anyhow::bail!("--family draws its own robots: leave out --truth family:SEED");
+    }
+    if setup.robot.name() != powertwin::model::builtin::IRB1200_NAME {
+        anyhow::bail!(
+            "--family runs the IRB 1200's identification set; for another arm, draw one robot \
+             with --truth family:SEED and identify it from `excite --set` runs"
+        );
+    }
+    let count = args.count.unwrap_or(12);
+    if count == 0 {
+        anyhow::bail!("--count must be at least 1");
+    }
+    let max_payload = args
+        .max_payload
+        .or(setup.drive.rated_payload_kg())
+        .unwrap_or(7.0);
+    let opts = FamilyOptions {
+        robots,
+        seed: args.seed.unwrap_or(1),
+        table: args.twin.truth_args().family_table()?,
+        idset: IdSetOptions::irb1200(false),
+        heldout: HeldoutOptions::for_robot(&setup.robot, count, max_payload)?,
+        heldout_seeds: FAMILY_HELDOUT_SEEDS,
+    };
+    let bars = Bars::new();
+    let rig = setup.rig();
+    let f = powertwin::validation::family::run(&rig, &opts, &bars)?;
+    bars.finish();
+    let json = serde_json::to_string_pretty(&f)?;
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        powertwin::io::write_atomic(&dir.join("family.json"), json.as_bytes())?;
+    }
+    if args.json {
+        return emit(&format!("{json}\n")).map(|_| ExitCode::SUCCESS);
+    }
+    emit(&family_table(&f))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The family's per-robot and pooled figures as text.
+fn family_table(f: &Family) -> String {
+    let mut o = String::new();
+    outln!(
+        o,
+        "{:>3} {:>12} {:>6} {:>4} {:>5} {:>6} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>7} {:<14}",
+        "#",
+        "family seed",
+        "Hz",
+        "avg",
+        "cab W",
+        "lag ms",
+        "log med%",
+        "log max%",
+        "plan max%",
+        "cover%",
+        "|z| med",
+        "RMSE W",
+        "redraws",
+        "model"
+    );
+    for r in &f.robots {
+        outln!(
+            o,
+            "{:>3} {:>12} {:>6.0} {:>4} {:>5.0} {:>6.0} {:>8.3} {:>8.3} {:>8.3} {:>6.0} {:>8.2} {:>8.2} {:>7} {:<14}",
+            r.index,
+            r.family_seed,
+            r.rate_hz,
+            if r.power_averaging { "yes" } else { "no" },
+            r.cabinet_seen_w,
+            1e3 * r.power_lag_s,
+            r.from_log.energy_error_pct.median,
+            r.from_log.energy_error_pct.worst,
+            r.from_plan.energy_error_pct.worst,
+            r.from_log.coverage_pct,
+            r.from_log.median_z.unwrap_or(f64::NAN),
+            r.power_rmse_w.worst,
+            r.redraws.len(),
+            r.model
+        );
+    }
+    for (name, s) in [
+        ("from the log ", &f.from_log),
+        ("from the plan", &f.from_plan),
+    ] {
+        outln!(
+            o,
+            "pooled {name}: energy error % median {:.3} p95 {:.3} worst {:.3}; above standby worst {:.3} %; 95 % coverage {:.0} % (median |z| {:.2}; calibrated 0.67)",
+            s.energy_error_pct.median,
+            s.energy_error_pct.p95,
+            s.energy_error_pct.worst,
+            s.above_standby_error_pct.worst,
+            s.coverage_pct,
+            s.median_z.unwrap_or(f64::NAN)
+        );
+    }
+    outln!(
+        o,
+        "pooled power RMSE W median {:.2} worst {:.2}; lowest coverage of one robot {:.0} %",
+        f.power_rmse_w.median,
+        f.power_rmse_w.worst,
+        f.worst_robot_coverage_pct
+    );
+    o
 }

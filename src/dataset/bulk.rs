@@ -207,5 +207,6 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         trajectory: traj.as_ref(),
         trajectory_description: json!({"item": index, "global_seed": spec.seed, "trajectory": description}),
         trajectory_seed: Some(item_seed),
+        family: None,
     })
 }

@@ -12,6 +12,7 @@ use crate::model::Robot;
 use crate::model::drive::Drive;
 use crate::trajectory::Trajectory;
 use crate::trajectory::limits::check_limits;
+use crate::twin::family::Draw;
 use crate::twin::sensor::{SensorSettings, measure};
 use crate::twin::{RunReport, Twin, TwinConfig};
 
@@ -37,6 +38,9 @@ pub struct RunSpec<'a> {
     pub trajectory_description: serde_json::Value,
     /// Seed of a randomly generated trajectory.
     pub trajectory_seed: Option<u64>,
+    /// What was drawn when `robot`, `drive`, `twin` and `sensor` are a robot of the family
+    /// of truths (recorded in `meta.json`).
+    pub family: Option<&'a Draw>,
 }
 
 /// Check the trajectory against the robot's position and velocity limits, run the twin, log
@@ -68,6 +72,7 @@ pub fn simulate(spec: &RunSpec) -> Result<(Dataset, RunReport)> {
         trajectory_seed: spec.trajectory_seed,
         trajectory: spec.trajectory_description.clone(),
         summary: Summary::of(&truth, &measured),
+        family: spec.family.cloned(),
     };
     Ok((
         Dataset {

@@ -14,11 +14,12 @@
 //! | `payloads` | timeline: `[{t_s, name, mass_kg, com_m, inertia_kgm2, tcp_m}]`, flange frame `tool0` |
 //! | `standard_params` | true standard parameters: `{friction, armature, names, values}` |
 //! | `base_params` | true base parameters: `{names, values, relations}` |
-//! | `twin` | physics, controller and motor settings ([`TwinConfig`]): `{physics: {dt_s, substeps}, gains: {kp_per_s2, kd_per_s}, motor, nominal_error_rel, nominal_seed}` |
-//! | `measurement` | logger settings ([`SensorSettings`]): `{rate_hz, power_averaging, noise: {encoder_resolution_rad, encoder_sigma_rad, joint_power_sigma_W, power_sigma_W, power_offset_W}, seed}` |
+//! | `twin` | physics, controller and motor settings ([`TwinConfig`]): `{physics: {dt_s, substeps}, gains: {kp_per_s2, kd_per_s}, motor, nominal_error_rel, nominal_seed}`, `fidelity`, optionally `cabinet_power_W` (absent: 0) |
+//! | `measurement` | logger settings ([`SensorSettings`]): `{rate_hz, power_averaging, noise: {encoder_resolution_rad, encoder_sigma_rad, joint_power_sigma_W, power_sigma_W, power_offset_W}, seed}`, optionally `power_lag_s` and `stamp_jitter_s` (absent: 0) |
 //! | `trajectory_seed` | seed of a randomly generated trajectory (optional) |
 //! | `trajectory` | free-form description written by the trajectory's owner |
 //! | `summary` | `{duration_s, energy_total_J, energy_grid_J, truth_rows, measured_rows}` |
+//! | `family` | optional: what was drawn for a robot of the family of truths ([`Draw`]: the family seed, link mass errors, per-joint friction laws and losses, cabinet, controller, logger) |
 //!
 //! Nothing run-dependent but the data is stored (no wall time, no host), so the same inputs
 //! give byte-identical datasets.
@@ -37,6 +38,7 @@ use crate::model::drive::Drive;
 use crate::model::inertia::tensor_elements;
 use crate::model::payload::Payload;
 use crate::twin::TwinConfig;
+use crate::twin::family::Draw;
 use crate::twin::record::{Measured, Recording};
 use crate::twin::sensor::SensorSettings;
 
@@ -72,6 +74,10 @@ pub struct Meta {
     pub trajectory: serde_json::Value,
     /// Figures computed from the recorded data ([`Summary::of`]).
     pub summary: Summary,
+    /// What was drawn when the twin ran a robot of the family (`--truth family:SEED`);
+    /// truth, for scoring only. Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub family: Option<Draw>,
 }
 
 /// Writer name and version.

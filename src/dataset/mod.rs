@@ -33,6 +33,8 @@ pub use meta::{Meta, SCHEMA_VERSION};
 
 use crate::error::{Error, Result};
 use crate::measurement::Log;
+use crate::measurement::clean::regularize_stamps;
+use crate::measurement::columns::CleanOptions;
 use crate::twin::record::{Measured, Recording};
 
 /// Name of the metadata file.
@@ -193,13 +195,31 @@ impl Dataset {
 
     /// What a user of the robot would have of this run: the logged stream (positions, total
     /// power of the kind the logger recorded, per-motor power) and the known payload
-    /// timeline; no truth. Errors: a payload record that is not physical.
+    /// timeline; no truth. Jittered time stamps are replaced by their uniform grid, as
+    /// reading the log from a file does ([`crate::measurement::clean::regularize`]).
+    /// Errors: a payload record that is not physical.
     pub fn log(&self, source: &str) -> Result<Log> {
         let m = &self.measured;
+        let mut t_s = m.t.clone();
+        let period = match t_s.as_slice() {
+            [a, b, ..] => b - a,
+            _ => 0.0,
+        };
+        let uniform = t_s
+            .iter()
+            .enumerate()
+            .all(|(k, t)| (t - t_s[0] - k as f64 * period).abs() <= 1e-9);
+        if !uniform
+            && regularize_stamps(&mut t_s, CleanOptions::default().max_jitter_periods).is_some()
+        {
+            // The grid's first stamp may fall before the run's start: the log starts at 0.
+            let first = t_s[0].min(0.0);
+            t_s.iter_mut().for_each(|t| *t -= first);
+        }
         Ok(Log {
             source: source.to_string(),
             robot: Some(self.meta.robot.name.clone()),
-            t_s: m.t.clone(),
+            t_s,
             q_rad: m.q.clone(),
             dq_rad_s: None,
             power_w: m.p_total.clone(),

@@ -200,15 +200,20 @@ pub struct Pieces {
 /// from it by more than `max_periods` sample periods (see the module docs, step 6). Returns
 /// the largest deviation, s, when the stamps were replaced.
 pub fn regularize(frame: &mut Frame, max_periods: f64) -> Option<f64> {
-    let m = frame.t_s.len();
+    regularize_stamps(&mut frame.t_s, max_periods)
+}
+
+/// [`regularize`] on bare time stamps `t_s` (s).
+pub fn regularize_stamps(t_s: &mut [f64], max_periods: f64) -> Option<f64> {
+    let m = t_s.len();
     if m < 3 {
         return None;
     }
     let n = m as f64;
     let mean_k = (n - 1.0) / 2.0;
-    let mean_t = frame.t_s.iter().sum::<f64>() / n;
+    let mean_t = t_s.iter().sum::<f64>() / n;
     let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (k, t) in frame.t_s.iter().enumerate() {
+    for (k, t) in t_s.iter().enumerate() {
         let dk = k as f64 - mean_k;
         sxy += dk * (t - mean_t);
         sxx += dk * dk;
@@ -218,8 +223,7 @@ pub fn regularize(frame: &mut Frame, max_periods: f64) -> Option<f64> {
         return None;
     }
     let grid = |k: usize| mean_t + period * (k as f64 - mean_k);
-    let worst = frame
-        .t_s
+    let worst = t_s
         .iter()
         .enumerate()
         .map(|(k, t)| (t - grid(k)).abs())
@@ -227,7 +231,7 @@ pub fn regularize(frame: &mut Frame, max_periods: f64) -> Option<f64> {
     if worst > max_periods * period {
         return None;
     }
-    for (k, t) in frame.t_s.iter_mut().enumerate() {
+    for (k, t) in t_s.iter_mut().enumerate() {
         *t = grid(k);
     }
     Some(worst)

@@ -33,6 +33,8 @@
 //! stribeck_static_Nm = 12.5           # static friction (>= coulomb_Nm) at rest
 //! stribeck_speed_rad_s = 0.05         # Stribeck velocity
 //! gear_friction_per_Nm = 0.02         # extra Coulomb friction per N m of transmitted torque
+//! gear_friction_braking_per_Nm = 0.03 # the same while the load drives the motor (power
+//!                                     # flowing back through the gear); default: as above
 //! ```
 //! Unknown keys, missing or repeated joints and out-of-range values are errors that name the
 //! file, the joint and the key.
@@ -78,8 +80,12 @@ pub struct Unmodelled {
     /// Stribeck velocity `vs`, rad/s.
     pub stribeck_speed: f64,
     /// Load-dependent gear friction: extra Coulomb friction `mu |tau|` per N m of
-    /// transmitted torque, dimensionless.
+    /// transmitted torque, dimensionless, while the motor drives the load (`tau dq >= 0`).
     pub gear_friction: f64,
+    /// The same while the load drives the motor (`tau dq < 0`, braking: power flows back
+    /// through the gear), dimensionless. Harmonic and cycloidal drives differ in the two
+    /// directions.
+    pub gear_friction_braking: f64,
 }
 
 impl Unmodelled {
@@ -90,8 +96,8 @@ impl Unmodelled {
     }
 
     /// Dry friction torque (N m) at speed `dq` (rad/s) with transmitted torque `tau` (N m),
-    /// for Coulomb friction `coulomb` (N m): Stribeck plus gear friction (the twin's sliding
-    /// torque, or its stiction bound at rest).
+    /// for Coulomb friction `coulomb` (N m): Stribeck plus gear friction of the direction the
+    /// power flows (the twin's sliding torque, or its stiction bound at rest).
     #[inline]
     pub fn friction(&self, coulomb: f64, dq: f64, tau: f64) -> f64 {
         let stribeck = match self.stribeck_static {
@@ -100,7 +106,12 @@ impl Unmodelled {
             }
             _ => 0.0,
         };
-        coulomb + stribeck + self.gear_friction * tau.abs()
+        let mu = if tau * dq < 0.0 {
+            self.gear_friction_braking
+        } else {
+            self.gear_friction
+        };
+        coulomb + stribeck + mu * tau.abs()
     }
 
     /// Whether any effect is present.
@@ -228,6 +239,8 @@ struct JointEntry {
     stribeck_speed: f64,
     #[serde(rename = "gear_friction_per_Nm", default)]
     gear_friction: f64,
+    #[serde(rename = "gear_friction_braking_per_Nm")]
+    gear_friction_braking: Option<f64>,
 }
 
 impl Drive {
@@ -339,6 +352,7 @@ impl Drive {
                         stribeck_static: e.stribeck_static,
                         stribeck_speed: e.stribeck_speed,
                         gear_friction: e.gear_friction,
+                        gear_friction_braking: e.gear_friction_braking.unwrap_or(e.gear_friction),
                     },
                 };
                 check_joint(&drive).map_err(|m| err(format!("joint '{}': {m}", joint.name)))?;
@@ -377,6 +391,16 @@ impl Drive {
             joints,
             rated_payload_kg: None,
             brakes: None,
+        })
+    }
+
+    /// The same file-level data (rated payload, brakes) with other per-joint values, checked
+    /// as [`Drive::new`] checks them.
+    pub fn with_joints(&self, robot: &Robot, joints: Vec<JointDrive>) -> Result<Drive> {
+        Ok(Drive {
+            rated_payload_kg: self.rated_payload_kg,
+            brakes: self.brakes,
+            ..Drive::new(robot, joints)?
         })
     }
 
@@ -476,6 +500,10 @@ fn check_joint(d: &JointDrive) -> std::result::Result<(), String> {
         ("iron_eddy_W_s2_per_rad2", d.unmodelled.iron_eddy),
         ("stribeck_speed_rad_s", d.unmodelled.stribeck_speed),
         ("gear_friction_per_Nm", d.unmodelled.gear_friction),
+        (
+            "gear_friction_braking_per_Nm",
+            d.unmodelled.gear_friction_braking,
+        ),
     ];
     for (key, v) in non_negative {
         if !v.is_finite() || v < 0.0 {
@@ -493,11 +521,16 @@ fn check_joint(d: &JointDrive) -> std::result::Result<(), String> {
             return Err("stribeck_static_Nm needs stribeck_speed_rad_s > 0".into());
         }
     }
-    if d.unmodelled.gear_friction >= 1.0 {
-        return Err(format!(
-            "gear_friction_per_Nm = {} must be < 1",
-            d.unmodelled.gear_friction
-        ));
+    for (key, mu) in [
+        ("gear_friction_per_Nm", d.unmodelled.gear_friction),
+        (
+            "gear_friction_braking_per_Nm",
+            d.unmodelled.gear_friction_braking,
+        ),
+    ] {
+        if mu >= 1.0 {
+            return Err(format!("{key} = {mu} must be < 1"));
+        }
     }
     if !(d.efficiency.is_finite() && d.efficiency > 0.0 && d.efficiency <= 1.0) {
         return Err(format!("efficiency = {} must be in (0, 1]", d.efficiency));

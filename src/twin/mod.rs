@@ -17,6 +17,7 @@
 //! and the recorded power is that work divided by `dt`.
 
 pub mod controller;
+pub mod family;
 pub mod motor;
 pub mod physics;
 pub mod record;
@@ -80,6 +81,15 @@ pub struct TwinConfig {
     /// Which effects the twin simulates.
     #[serde(default)]
     pub fidelity: Fidelity,
+    /// Power of the controller cabinet (fans, computer, the drives' logic supply) that the
+    /// power meter also measures, W: added to the logged signal after the DC bus's clip. 0
+    /// when the meter does not see it (a meter on the DC bus).
+    #[serde(
+        rename = "cabinet_power_W",
+        default,
+        skip_serializing_if = "sensor::is_zero"
+    )]
+    pub cabinet_power_w: f64,
 }
 
 impl Default for TwinConfig {
@@ -91,6 +101,7 @@ impl Default for TwinConfig {
             nominal_error: 0.0,
             nominal_seed: 0,
             fidelity: Fidelity::Exact,
+            cabinet_power_w: 0.0,
         }
     }
 }
@@ -124,10 +135,16 @@ pub struct Twin<'a> {
 
 impl<'a> Twin<'a> {
     /// A twin of `robot` with true drive parameters `drive`. Errors: invalid physics
-    /// settings, a nominal-model error that is not finite and in [0, 1), or drives of
-    /// another joint count.
+    /// settings, a nominal-model error that is not finite and in [0, 1), a cabinet power that
+    /// is not finite and >= 0, or drives of another joint count.
     pub fn new(robot: &'a Robot, drive: &'a Drive, config: TwinConfig) -> Result<Self> {
         config.physics.validate()?;
+        if !(config.cabinet_power_w.is_finite() && config.cabinet_power_w >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "cabinet power {} W must be finite and >= 0",
+                config.cabinet_power_w
+            )));
+        }
         if !(config.nominal_error.is_finite() && (0.0..1.0).contains(&config.nominal_error)) {
             return Err(Error::InvalidInput(format!(
                 "nominal model error {} must be finite and in [0, 1)",
@@ -308,8 +325,8 @@ impl<'a> Twin<'a> {
                 rec.p_elec[i].push(p_elec);
             }
             rec.t.push(t);
-            rec.p_total.push(p_total);
-            rec.p_grid.push(p_total.max(0.0));
+            rec.p_total.push(p_total + cfg.cabinet_power_w);
+            rec.p_grid.push(p_total.max(0.0) + cfg.cabinet_power_w);
             rec.payload_mass.push(payload_mass);
             std::mem::swap(&mut q, &mut q_next);
             std::mem::swap(&mut dq, &mut dq_next);

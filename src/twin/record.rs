@@ -33,9 +33,11 @@ pub struct Recording {
     pub p_mech: Vec<Vec<f64>>,
     /// Electrical power per motor over the step (motor model), W.
     pub p_elec: Vec<Vec<f64>>,
-    /// Total motor power, sum of `p_elec`, W (what RobotStudio reports).
+    /// Total motor power, sum of `p_elec`, W (what RobotStudio reports), plus the cabinet
+    /// power the meter sees ([`crate::twin::TwinConfig::cabinet_power_w`], usually 0).
     pub p_total: Vec<f64>,
-    /// Grid-side power with a DC bus that cannot return energy: `max(p_total, 0)`, W.
+    /// Grid-side power with a DC bus that cannot return energy: the motor sum clipped at 0,
+    /// plus the cabinet power the meter sees, W.
     pub p_grid: Vec<f64>,
     /// Payload mass attached to the flange, kg.
     pub payload_mass: Vec<f64>,

@@ -12,8 +12,10 @@
 //! the sample time `t_k` (the mean of the two physics steps around it, a second-order
 //! estimate centred on `t_k`), as RobotStudio's signal analyser does, or averaged over the
 //! sample period `[t_k - T, t_k)` when `power_averaging` is on (an integrating power meter;
-//! window energies are then exact). Noise is seeded, so a seed reproduces a dataset bit for
-//! bit.
+//! window energies are then exact). A meter on its own clock may log the power `power_lag_s`
+//! late, and the logger may stamp each sample up to `stamp_jitter_s` off its sampling
+//! instant (both 0 by default). Noise and jitter are seeded, so a seed reproduces a dataset
+//! bit for bit.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -108,6 +110,22 @@ pub struct SensorSettings {
     pub noise: NoiseSettings,
     /// Seed of the noise.
     pub seed: u64,
+    /// Delay of the power stream behind the joint stream, s (a meter on its own clock, or
+    /// its filter): the power logged at `t` is the power at `t - lag`. Rounded to whole
+    /// physics steps; >= 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub power_lag_s: f64,
+    /// Time-stamp jitter, s: each logged stamp is off its sampling instant by a uniform
+    /// error in `[-jitter, jitter]` (host receive time, clock quantisation). Below 0.45
+    /// sample periods, so the stamps stay in order.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub stamp_jitter_s: f64,
+}
+
+/// Whether an optional setting is at its default 0 (then left out of `meta.json`, so
+/// datasets without it read and write as before).
+pub(crate) fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for SensorSettings {
@@ -118,6 +136,8 @@ impl Default for SensorSettings {
             power_signal: PowerSignal::Total,
             noise: NoiseSettings::default(),
             seed: 0,
+            power_lag_s: 0.0,
+            stamp_jitter_s: 0.0,
         }
     }
 }
@@ -144,7 +164,34 @@ impl SensorSettings {
                 self.rate_hz, dt
             )));
         }
+        if !(self.power_lag_s.is_finite() && self.power_lag_s >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "power lag {} s must be finite and >= 0",
+                self.power_lag_s
+            )));
+        }
+        if !(self.stamp_jitter_s.is_finite()
+            && self.stamp_jitter_s >= 0.0
+            && self.stamp_jitter_s < 0.45 / self.rate_hz)
+        {
+            return Err(Error::InvalidInput(format!(
+                "time-stamp jitter {} s must be >= 0 and below 0.45 sample periods ({} s)",
+                self.stamp_jitter_s,
+                0.45 / self.rate_hz
+            )));
+        }
         Ok(stride)
+    }
+}
+
+/// Truth rows whose power a sample logs at row `at` (the sample's row, or its lag earlier):
+/// the two steps around it, or the `stride` steps before it when averaging; row 0 alone at
+/// the start.
+fn power_window(at: usize, stride: usize, averaging: bool, rows: usize) -> std::ops::Range<usize> {
+    match (averaging, at) {
+        (_, 0) => 0..1,
+        (true, _) if at >= stride => at - stride..at,
+        _ => at - 1..(at + 1).min(rows),
     }
 }
 
@@ -160,13 +207,15 @@ pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
         ..Measured::default()
     };
     let noise = &s.noise;
+    let lag = (s.power_lag_s / rec.dt).round() as usize;
     for k in (0..rec.len()).step_by(stride) {
-        m.t.push(rec.t[k]);
-        let window = match (s.power_averaging, k) {
-            (_, 0) => 0..1,
-            (true, _) if k >= stride => k - stride..k,
-            _ => k - 1..(k + 1).min(rec.len()),
-        };
+        let mut t = rec.t[k];
+        if s.stamp_jitter_s > 0.0 {
+            // A log starts at its first stamp: none before 0.
+            t = (t + rng.random_range(-s.stamp_jitter_s..=s.stamp_jitter_s)).max(0.0);
+        }
+        m.t.push(t);
+        let window = power_window(k.saturating_sub(lag), stride, s.power_averaging, rec.len());
         let len = window.len() as f64;
         for i in 0..n {
             let mut q = rec.q[i][k];

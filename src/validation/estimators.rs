@@ -96,7 +96,7 @@ pub fn compare(rig: &Rig, steps: &Steps) -> Result<Vec<EstimatorResult>> {
                 error_pct.push(energy_error_pct(e, row.simulated_j));
             }
             let refs: Vec<&Estimate> = estimates.iter().collect();
-            let parameters = table(robot, rig.drive, &model, &refs)?;
+            let parameters = table(rig.true_robot(), rig.true_drive(), &model, &refs)?;
             let consistency = consistency(robot, &model, efficiency, CONSISTENCY_POSES, 1)?;
             Ok(EstimatorResult {
                 method: method.to_string(),

@@ -246,7 +246,7 @@ fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Resul
                 })
                 .collect(),
             harmonics: HARMONICS,
-            sample_rate_hz: rig.sensor.rate_hz,
+            sample_rate_hz: rig.logger().rate_hz,
             min_speed: opts.fit.min_speed,
             criterion: opts.criterion,
             accel_limits: opts.accel_limits.clone(),

@@ -7,6 +7,8 @@
 //! * [`estimators`]: the paper's steps against all-at-once estimators on the same data.
 //! * [`idset`]: the identification set a user would run, identified by cross-validation.
 //! * [`heldout`]: the held-out benchmark, motions no identification saw.
+//! * [`family`]: the held-out benchmark across a family of truths, robots we did not build,
+//!   each identified as a user would.
 //! * [`sweep`]: the pick-and-place task over speeds and loads (Figure 14).
 //! * [`optimized`]: an optimised task and the user's uniform plan on the twin, predicted and
 //!   simulated savings.
@@ -23,6 +25,7 @@
 //! it is [`crate::identification::consistency`].
 
 pub mod estimators;
+pub mod family;
 pub mod heldout;
 pub mod holdout;
 pub mod idset;

@@ -167,8 +167,8 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
             let (idset, runs) = (idset?, runs?);
             let model = idset.selection.fit.model.clone();
             let parameters = score::table(
-                rig.robot,
-                rig.drive,
+                rig.true_robot(),
+                rig.true_drive(),
                 &model,
                 &[&idset.selection.fit.free_estimate()],
             )?;

@@ -8,25 +8,48 @@ use crate::model::Robot;
 use crate::model::drive::{BrakeWindow, Drive};
 use crate::model::payload::PayloadEvent;
 use crate::trajectory::Trajectory;
+use crate::twin::family::Plant;
 use crate::twin::sensor::SensorSettings;
 use crate::twin::{RunReport, TwinConfig};
 
-/// Robot, true drives, twin and logger settings of an experiment.
+/// Robot, drives, twin and logger settings of an experiment.
 #[derive(Debug, Clone)]
 pub struct Rig<'a> {
-    /// The simulated robot (no payload).
+    /// The robot as the user's URDF describes it (no payload): what identification sees, and
+    /// what the twin simulates unless `plant` is given.
     pub robot: &'a Robot,
     /// Where the robot came from (recorded in the datasets).
     pub urdf: Urdf,
-    /// True drive parameters.
+    /// The drives as the user's drive file gives them (the truth unless `plant` is given).
     pub drive: &'a Drive,
     /// Physics, controller and motor model.
     pub twin: TwinConfig,
     /// Logger; run `k` of an experiment uses noise seed `sensor.seed + k`.
     pub sensor: SensorSettings,
+    /// The robot the twin simulates when it is not the one the files describe: a robot of
+    /// the family of truths ([`Plant`]). Its robot, drives, twin and logger settings replace
+    /// `robot`, `drive`, `twin` and `sensor` in the twin runs and in scoring; identification
+    /// and the baseline keep seeing `robot` and `drive`, the user's files. `None`: the files
+    /// are the truth.
+    pub plant: Option<&'a Plant>,
 }
 
 impl Rig<'_> {
+    /// The robot the twin simulates (truth: for twin runs and scoring only).
+    pub fn true_robot(&self) -> &Robot {
+        self.plant.map_or(self.robot, |p| &p.robot)
+    }
+
+    /// The drives the twin simulates (truth: for twin runs and scoring only).
+    pub fn true_drive(&self) -> &Drive {
+        self.plant.map_or(self.drive, |p| &p.drive)
+    }
+
+    /// The logger of the twin runs.
+    pub fn logger(&self) -> &SensorSettings {
+        self.plant.map_or(&self.sensor, |p| &p.sensor)
+    }
+
     /// Run the twin along `traj` with the payload timeline `events` and log it as a dataset.
     /// `run` numbers the run within the experiment (noise seed offset); `description` goes
     /// into `meta.json`.
@@ -50,20 +73,22 @@ impl Rig<'_> {
         run: u64,
         description: serde_json::Value,
     ) -> Result<(Dataset, RunReport)> {
+        let sensor = self.plant.map_or(&self.sensor, |p| &p.sensor);
         let spec = RunSpec {
-            robot: self.robot,
+            robot: self.true_robot(),
             urdf: self.urdf.clone(),
-            drive: self.drive,
+            drive: self.true_drive(),
             events,
             brakes,
-            twin: self.twin.clone(),
+            twin: self.plant.map_or(&self.twin, |p| &p.twin).clone(),
             sensor: SensorSettings {
-                seed: self.sensor.seed.wrapping_add(run),
-                ..self.sensor
+                seed: sensor.seed.wrapping_add(run),
+                ..*sensor
             },
             trajectory: traj,
             trajectory_description: description,
             trajectory_seed: None,
+            family: self.plant.map(|p| &p.draw),
         };
         simulate(&spec)
     }

@@ -203,7 +203,12 @@ pub fn heldout_motion(
 ) -> Result<MotionResult> {
     let robot = rig.robot;
     let dt = rig.twin.physics.dt;
-    let standby_w: f64 = rig.drive.joints().iter().map(|j| j.standby_power).sum();
+    let standby_w: f64 = rig
+        .true_drive()
+        .joints()
+        .iter()
+        .map(|j| j.standby_power)
+        .sum();
     let clipped = model.signal.clipped();
     let truth = &ds.truth;
     // Truth over the logged span [t_0, t_last) and over the whole run.

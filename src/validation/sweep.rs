@@ -99,6 +99,7 @@ impl std::str::FromStr for TwinChoice {
 /// settings of `rig`.
 pub fn identified_rig<'a>(twin: &'a IdentifiedTwin, rig: &Rig) -> Rig<'a> {
     Rig {
+        plant: None,
         robot: &twin.robot,
         urdf: crate::dataset::meta::Urdf::inline(&twin.urdf()),
         drive: &twin.drive,

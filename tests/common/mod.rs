@@ -117,6 +117,7 @@ pub fn irb1200_rig<'a>(
     use powertwin::twin::{Fidelity, TwinConfig};
     let realistic = fidelity == Fidelity::Realistic;
     powertwin::validation::rig::Rig {
+        plant: None,
         robot,
         urdf: powertwin::dataset::meta::Urdf::inline(powertwin::model::builtin::IRB1200_URDF),
         drive,
