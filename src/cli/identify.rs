@@ -493,6 +493,12 @@ fn identify_fitted(
             c.pieces
         );
     }
+    if sel.fit.model.power_lag_s != 0.0 {
+        eprintln!(
+            "power lag behind the joints found by the fit: {:+.1} ms (the states the power belongs to)",
+            1e3 * sel.fit.model.power_lag_s
+        );
+    }
     if let Some(c) = &sel.consistent {
         eprintln!(
             "consistent: the model moved {:.3} (Mahalanobis) from the estimate, at most {:.3} standard deviations per value",

@@ -145,6 +145,18 @@ pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
 /// standby and holding power) is prepared too, with no excited joint; identification needs
 /// logs of motion beside it ([`ensure_motion`]).
 pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
+    prepare_lagged(log, route, 0.0)
+}
+
+/// [`prepare`] for power that lags the joints by `power_lag_s` s (positive: late): the
+/// power sampled at `t` belongs to the states at `t - power_lag_s` (the motion extended
+/// past its ends by its boundary polynomial or its period).
+pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepared> {
+    if !power_lag_s.is_finite() {
+        return Err(Error::InvalidInput(format!(
+            "power lag {power_lag_s} s must be finite"
+        )));
+    }
     log.validate()?;
     let t = &log.t_s;
     let q = &log.q_rad;
@@ -207,11 +219,11 @@ pub fn prepare(log: &Log, route: Route) -> Result<Prepared> {
         Route::Fourier { .. } => 0.0,
         Route::Spline | Route::Smoothing { .. } => t[0],
     };
-    let states = if log.power_averaged {
+    let states = if log.power_averaged || power_lag_s != 0.0 {
         // The states of the power's times along the motion, stamped with the sample times.
-        let at: Vec<f64> = power_times(t, true)
+        let at: Vec<f64> = power_times(t, log.power_averaged)
             .iter()
-            .map(|s| s - motion_t0_s)
+            .map(|s| s - power_lag_s - motion_t0_s)
             .collect();
         States {
             t: t.clone(),

@@ -96,6 +96,16 @@ pub struct PowerModel {
     /// works.
     #[serde(default)]
     pub structure_rel: f64,
+    /// Lag of the logged power behind the logged joints found in the identification logs, s
+    /// (positive: the power is late; a meter on its own clock or with a filter). Predicting
+    /// the power at a log's samples shifts by it; energies of motions do not depend on it.
+    #[serde(default, skip_serializing_if = "zero_lag")]
+    pub power_lag_s: f64,
+}
+
+/// Whether a model has no power lag (then left out of the file, as before there was one).
+fn zero_lag(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl PowerModel {
@@ -116,6 +126,7 @@ impl PowerModel {
             covariance: Vec::new(),
             structure_sigma: 0.0,
             structure_rel: 0.0,
+            power_lag_s: 0.0,
         })
     }
 

@@ -60,7 +60,11 @@ pub fn price_log(
         .iter()
         .sum();
     let t_s = power_times(&p.states.t, p.power_averaged);
-    let t: Vec<f64> = t_s.iter().map(|t| t - p.motion_t0_s).collect();
+    // The logged power belongs to the motion `power_lag_s` earlier (0 for most models).
+    let t: Vec<f64> = t_s
+        .iter()
+        .map(|t| t - p.motion_t0_s - model.power_lag_s)
+        .collect();
     let priced = price(
         model,
         robot,

@@ -229,10 +229,13 @@ pub fn heldout_motion(
     let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
     // Power at the logged samples: along the log route (its clock starts at the route's
     // origin) or along the plan (the run's clock).
-    let log_t: Vec<f64> = log.t_s.iter().map(|t| t - prepared.motion_t0_s).collect();
+    // The logged power belongs to the motion the model's lag earlier.
     let rmse = |mm: &PowerModel, plan: bool| -> Result<f64> {
+        let lagged =
+            |t0: f64| -> Vec<f64> { log.t_s.iter().map(|t| t - t0 - mm.power_lag_s).collect() };
+        let log_t = lagged(prepared.motion_t0_s);
         let p = if plan {
-            mm.power_with_payloads(robot, m.trajectory.as_ref(), &m.events, eff, &log.t_s)?
+            mm.power_with_payloads(robot, m.trajectory.as_ref(), &m.events, eff, &lagged(0.0))?
         } else {
             mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &log_t)?
         };

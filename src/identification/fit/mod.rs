@@ -31,6 +31,7 @@
 //! - `covariance`: the HAC covariance of an estimate;
 //! - `cv` and `structure`: cross-validation ([`select`]) and the structure-error posterior;
 //! - `refit`: the loss terms refitted under the consistent base parameters;
+//! - `lag`: the lag of the logged power behind the joints, found by the model's fit;
 //! - `pipeline`: logs to a selected, consistent model ([`identify_logs`]).
 
 use nalgebra::DMatrix;
@@ -43,6 +44,7 @@ use crate::identification::tuning;
 mod covariance;
 mod cv;
 mod estimate;
+mod lag;
 mod layout;
 mod nonlinear;
 mod pipeline;
@@ -180,6 +182,10 @@ pub struct FitOptions {
     /// (those directions from the prior, with its width in the intervals). `None`: the data
     /// alone, and rank-deficient data are an error.
     pub prior: Option<crate::identification::prior::Prior>,
+    /// Largest lag of the logged power behind the joints searched for, s (either sign): the
+    /// lag whose states explain the power best (a linear fit at each trial lag) is the
+    /// model's [`PowerModel::power_lag_s`] and every fit uses the states it gives. 0: none.
+    pub max_power_lag_s: f64,
 }
 
 impl Default for FitOptions {
@@ -196,6 +202,7 @@ impl Default for FitOptions {
             consistent: tuning::CONSISTENT,
             motor_power: tuning::MOTOR_POWER,
             prior: None,
+            max_power_lag_s: tuning::MAX_POWER_LAG_S,
         }
     }
 }

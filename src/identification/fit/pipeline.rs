@@ -13,7 +13,8 @@ use crate::model::Robot;
 
 /// Identify the power model of `robot` from measured logs: states along `routes` (one for
 /// all logs, or one per log), known payloads through the base relations, the estimator
-/// chosen by cross-validation. Reads nothing but the logs. Errors: logs of another robot or
+/// chosen by cross-validation, the power's lag behind the joints found by the fit
+/// ([`FitOptions::max_power_lag_s`]). Reads nothing but the logs. Errors: logs of another robot or
 /// joint count, rank-deficient data without [`FitOptions::prior`] (naming the parameters),
 /// too little data.
 pub fn identify_logs(
@@ -41,16 +42,25 @@ pub fn identify_logs(
             opts.max_fit_rate_hz
         )));
     }
+    if !(opts.max_power_lag_s.is_finite() && opts.max_power_lag_s >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "largest power lag {} s must be finite and >= 0 (0: none)",
+            opts.max_power_lag_s
+        )));
+    }
     for log in logs {
         log.check_robot(robot)?;
     }
+    let layout = crate::dynamics::ParamLayout::new(robot, true, true);
+    let template = PowerModel::new(robot, layout, false)?;
+    let lag = super::lag::find_lag(robot, &template, logs, routes, opts)?;
     let prepared = logs
         .iter()
         .enumerate()
-        .map(|(k, l)| crate::identification::data::prepare(l, routes[k.min(routes.len() - 1)]))
+        .map(|(k, l)| {
+            crate::identification::data::prepare_lagged(l, routes[k.min(routes.len() - 1)], lag)
+        })
         .collect::<Result<Vec<_>>>()?;
-    let layout = crate::dynamics::ParamLayout::new(robot, true, true);
-    let template = PowerModel::new(robot, layout, false)?;
     let motor_power = opts.motor_power
         && prepared
             .iter()
@@ -88,6 +98,7 @@ pub fn identify_logs(
         )?;
         selection.consistent = Some(consistent);
     }
+    selection.fit.model.power_lag_s = lag;
     Ok(selection)
 }
 
