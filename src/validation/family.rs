@@ -79,6 +79,8 @@ pub struct FamilyRobot {
     pub model: String,
     /// Held-out motions predicted, over all seeds.
     pub motions: usize,
+    /// Each held-out motion's scores, seed after seed.
+    pub results: Vec<MotionResult>,
     /// From the logs.
     pub from_log: RouteSummary,
     /// From the plans.
@@ -186,6 +188,7 @@ fn one_robot(
                     from_log: RouteSummary::of(motions.iter().map(|m| &m.from_log)),
                     from_plan: RouteSummary::of(motions.iter().map(|m| &m.from_plan)),
                     power_rmse_w: Spread::of(motions.iter().map(|m| m.power_rmse_w)),
+                    results: motions.clone(),
                 };
                 return Ok((robot, motions));
             }

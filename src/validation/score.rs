@@ -12,7 +12,7 @@ use serde::Serialize;
 use crate::dataset::Dataset;
 use crate::dynamics::DriveTerms;
 use crate::error::Result;
-use crate::identification::data::prepare;
+use crate::identification::data::{power_times, prepare};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::{PowerModel, Prediction};
 use crate::model::Robot;
@@ -229,10 +229,12 @@ pub fn heldout_motion(
     let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
     // Power at the logged samples: along the log route (its clock starts at the route's
     // origin) or along the plan (the run's clock).
-    // The logged power belongs to the motion the model's lag earlier.
+    // The logged power belongs to the motion at its power times (the middle of each period
+    // for an averaging meter), the model's lag earlier.
+    let power_t = power_times(&log.t_s, log.power_averaged);
     let rmse = |mm: &PowerModel, plan: bool| -> Result<f64> {
         let lagged =
-            |t0: f64| -> Vec<f64> { log.t_s.iter().map(|t| t - t0 - mm.power_lag_s).collect() };
+            |t0: f64| -> Vec<f64> { power_t.iter().map(|t| t - t0 - mm.power_lag_s).collect() };
         let log_t = lagged(prepared.motion_t0_s);
         let p = if plan {
             mm.power_with_payloads(robot, m.trajectory.as_ref(), &m.events, eff, &lagged(0.0))?

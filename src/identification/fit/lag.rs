@@ -10,8 +10,9 @@
 //! For each trial lag the logs are prepared with the states that much earlier
 //! ([`crate::identification::data::prepare_lagged`]) and the PMSM estimator (unweighted, the
 //! arm's power only, every sample) fitted on the pooled samples; the lag with the least
-//! residual wins: a grid of [`GRID`] points over `+-max`, then a golden-section search within
-//! one grid step of the best. The linear estimator without copper loss would not do: with
+//! residual wins: a grid of [`GRID`] points over `+-max`, a grid of [`FINE`] across one coarse
+//! step around its best, and the vertex of the parabola through the fine best and its
+//! neighbours. The linear estimator without copper loss would not do: with
 //! loads its residual is dominated by the copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
@@ -24,10 +25,10 @@ use crate::measurement::Log;
 use crate::model::Robot;
 
 /// Trial lags of the coarse grid (odd, so 0 is one of them).
-const GRID: usize = 9;
+const GRID: usize = 7;
 
-/// Golden-section steps after the grid (each narrows the bracket by 0.618).
-const REFINE: usize = 8;
+/// Trial lags of the fine grid across one coarse step around the coarse best.
+const FINE: usize = 5;
 
 /// The lag (s) of the logged power behind the joints in `logs` that the linear power model
 /// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off.
@@ -68,34 +69,39 @@ pub(super) fn find_lag(
         )?;
         Ok(f.estimate.residual_rms)
     };
+    // The coarse grid, then a fine one around its best; the vertex of the parabola through
+    // the fine best and its neighbours (kept inside them).
     let step = 2.0 * max / (GRID - 1) as f64;
+    let coarse = best_of((0..GRID).map(|k| -max + k as f64 * step), &cost)?;
+    let fine_step = step / (FINE - 1) as f64;
+    let fine: Vec<f64> = (0..FINE)
+        .map(|k| coarse - 0.5 * step + k as f64 * fine_step)
+        .collect();
+    let costs = fine.iter().map(|&l| cost(l)).collect::<Result<Vec<_>>>()?;
+    let k = (0..FINE)
+        .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
+        .unwrap_or(FINE / 2);
+    if k == 0 || k == FINE - 1 {
+        return Ok(fine[k]);
+    }
+    let (a, b, c) = (costs[k - 1], costs[k], costs[k + 1]);
+    let curvature = a - 2.0 * b + c;
+    let shift = if curvature > 0.0 {
+        (0.5 * (a - c) / curvature).clamp(-1.0, 1.0)
+    } else {
+        0.0
+    };
+    Ok(fine[k] + shift * fine_step)
+}
+
+/// The argument of the least cost among `lags`.
+fn best_of(lags: impl Iterator<Item = f64>, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
     let mut best = (0.0, f64::INFINITY);
-    for k in 0..GRID {
-        let lag = -max + k as f64 * step;
+    for lag in lags {
         let c = cost(lag)?;
         if c < best.1 {
             best = (lag, c);
         }
     }
-    // Golden section on [best - step, best + step].
-    let ratio = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut a, mut b) = (best.0 - step, best.0 + step);
-    let mut x1 = b - ratio * (b - a);
-    let mut x2 = a + ratio * (b - a);
-    let (mut f1, mut f2) = (cost(x1)?, cost(x2)?);
-    for _ in 0..REFINE {
-        if f1 < f2 {
-            b = x2;
-            (x2, f2) = (x1, f1);
-            x1 = b - ratio * (b - a);
-            f1 = cost(x1)?;
-        } else {
-            a = x1;
-            (x1, f1) = (x2, f2);
-            x2 = a + ratio * (b - a);
-            f2 = cost(x2)?;
-        }
-    }
-    let (lag, c) = if f1 < f2 { (x1, f1) } else { (x2, f2) };
-    Ok(if c < best.1 { lag } else { best.0 })
+    Ok(best.0)
 }
