@@ -30,6 +30,9 @@ const GRID: usize = 7;
 /// Trial lags of the fine grid across one coarse step around the coarse best.
 const FINE: usize = 5;
 
+/// The 99 % point of chi-square with one degree of freedom: the evidence a lag needs.
+const LAG_EVIDENCE: f64 = 6.63;
+
 /// The lag (s) of the logged power behind the joints in `logs` that the linear power model
 /// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off.
 pub(super) fn find_lag(
@@ -43,6 +46,7 @@ pub(super) fn find_lag(
     if max <= 0.0 {
         return Ok(0.0);
     }
+    let rows = std::cell::Cell::new(0usize);
     let cost = |lag: f64| -> Result<f64> {
         let prepared = logs
             .iter()
@@ -67,12 +71,25 @@ pub(super) fn find_lag(
             Weighting::None,
             &|_| true,
         )?;
+        rows.set(f.estimate.rows);
         Ok(f.estimate.residual_rms)
     };
+    let at_zero = cost(0.0)?;
+    let lag = search(max, &cost)?;
+    // Keep the lag only where the data tell it from none: the likelihood ratio of the fits
+    // at that lag and at zero, `N ln(RSS_0 / RSS_L)`, above the 99 % point of chi-square
+    // with one degree of freedom. A gentle motion's power hardly depends on the lag; its
+    // residual is flat and the least of it noise.
+    let ratio = rows.get() as f64 * 2.0 * (at_zero / cost(lag)?).ln();
+    Ok(if ratio > LAG_EVIDENCE { lag } else { 0.0 })
+}
+
+/// The least-cost lag within `+-max`.
+fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
     // The coarse grid, then a fine one around its best; the vertex of the parabola through
     // the fine best and its neighbours (kept inside them).
     let step = 2.0 * max / (GRID - 1) as f64;
-    let coarse = best_of((0..GRID).map(|k| -max + k as f64 * step), &cost)?;
+    let coarse = best_of((0..GRID).map(|k| -max + k as f64 * step), cost)?;
     let fine_step = step / (FINE - 1) as f64;
     let fine: Vec<f64> = (0..FINE)
         .map(|k| coarse - 0.5 * step + k as f64 * fine_step)
