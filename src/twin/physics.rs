@@ -58,7 +58,7 @@ impl Default for PhysicsSettings {
     fn default() -> Self {
         PhysicsSettings {
             dt: 1e-3,
-            substeps: 6,
+            substeps: 1,
         }
     }
 }
