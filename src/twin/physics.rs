@@ -35,7 +35,7 @@
 use nalgebra::{Isometry3, Vector3};
 use rapier3d_f64::math::{Matrix, Pose, Rotation, Vector};
 use rapier3d_f64::prelude::{
-    GenericJointBuilder, JointAxesMask, MassProperties, MultibodyIndex, PhysicsWorld,
+    GenericJointBuilder, JointAxesMask, MassProperties, Multibody, MultibodyIndex, PhysicsWorld,
     RigidBodyBuilder, RigidBodyHandle,
 };
 
@@ -147,31 +147,63 @@ fn mass_properties(i: &RigidInertia) -> MassProperties {
     MassProperties::with_inertia_matrix(vec(&i.com), i.mass, inertia)
 }
 
+/// Check that `drive` has `n` finite non-negative values of each term.
+fn check_drive(drive: &DriveTerms, n: usize) -> Result<()> {
+    for (name, v) in [
+        ("rotor_inertia", &drive.rotor_inertia),
+        ("viscous", &drive.viscous),
+        ("coulomb", &drive.coulomb),
+    ] {
+        if v.len() != n || v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "drive {name} must have {n} finite non-negative values"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Put the drive terms into the multibody's per-DoF data (`dofs[i]`: joint `i`'s index):
+/// rotor inertia as armature, dry friction as the friction-loss bound, viscous friction as
+/// Rapier damping only where `dt fv > EXPLICIT_DAMPING Ia` (`dt` in s); Rapier's default
+/// damping removed. Returns the viscous friction (N m s/rad) the step applies as a torque
+/// instead, 0 where Rapier's damping carries it.
+fn inject_drive(mb: &mut Multibody, dofs: &[usize], drive: &DriveTerms, dt: f64) -> Vec<f64> {
+    mb.damping_mut().fill(0.0);
+    let mut viscous = vec![0.0; dofs.len()];
+    for (i, &d) in dofs.iter().enumerate() {
+        if drive.viscous[i] * dt <= EXPLICIT_DAMPING * drive.rotor_inertia[i] {
+            viscous[i] = drive.viscous[i];
+        } else {
+            mb.damping_mut()[d] = drive.viscous[i];
+        }
+        mb.frictions_mut()[d] = drive.coulomb[i];
+        mb.armature_mut()[d] = drive.rotor_inertia[i];
+    }
+    viscous
+}
+
+/// A world without bodies, stepping by `settings`, gravity along -z.
+fn empty_world(settings: &PhysicsSettings) -> PhysicsWorld {
+    let mut world = PhysicsWorld::new();
+    world.gravity = vec(&GRAVITY);
+    let params = &mut world.integration_parameters;
+    params.dt = settings.dt;
+    params.num_solver_iterations = settings.substeps;
+    // No colliders, so nothing for continuous collision detection to do: skip its per-step
+    // motion test.
+    params.max_ccd_substeps = 0;
+    params.num_internal_pgs_iterations = STICTION_SWEEPS.div_ceil(settings.substeps);
+    world
+}
+
 impl RapierRobot {
     /// Build the multibody of `robot` with the drive terms `drive` injected, at `q = 0`, at rest.
     pub fn new(robot: &Robot, drive: &DriveTerms, settings: &PhysicsSettings) -> Result<Self> {
         settings.validate()?;
         let n = robot.dof();
-        for (name, v) in [
-            ("rotor_inertia", &drive.rotor_inertia),
-            ("viscous", &drive.viscous),
-            ("coulomb", &drive.coulomb),
-        ] {
-            if v.len() != n || v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                return Err(Error::InvalidInput(format!(
-                    "drive {name} must have {n} finite non-negative values"
-                )));
-            }
-        }
-        let mut world = PhysicsWorld::new();
-        world.gravity = vec(&GRAVITY);
-        world.integration_parameters.dt = settings.dt;
-        world.integration_parameters.num_solver_iterations = settings.substeps;
-        // No colliders, so nothing for continuous collision detection to do: skip its
-        // per-step motion test.
-        world.integration_parameters.max_ccd_substeps = 0;
-        world.integration_parameters.num_internal_pgs_iterations =
-            STICTION_SWEEPS.div_ceil(settings.substeps);
+        check_drive(drive, n)?;
+        let mut world = empty_world(settings);
         let base = world.insert_body(RigidBodyBuilder::fixed());
         // The free degree of freedom of a revolute multibody joint is the joint frame's x axis;
         // `r` turns it onto the link frame's z axis.
@@ -229,17 +261,7 @@ impl RapierRobot {
                 mb.ndofs()
             )));
         }
-        mb.damping_mut().fill(0.0);
-        let mut viscous = vec![0.0; n];
-        for (i, &d) in dofs.iter().enumerate() {
-            if drive.viscous[i] * settings.dt <= EXPLICIT_DAMPING * drive.rotor_inertia[i] {
-                viscous[i] = drive.viscous[i];
-            } else {
-                mb.damping_mut()[d] = drive.viscous[i];
-            }
-            mb.frictions_mut()[d] = drive.coulomb[i];
-            mb.armature_mut()[d] = drive.rotor_inertia[i];
-        }
+        let viscous = inject_drive(mb, &dofs, drive, settings.dt);
         Ok(RapierRobot {
             world,
             links,
@@ -255,7 +277,7 @@ impl RapierRobot {
         })
     }
 
-    fn mb(&self) -> &rapier3d_f64::prelude::Multibody {
+    fn mb(&self) -> &Multibody {
         self.world
             .multibody_joints
             .get_multibody(self.multibody)
