@@ -188,14 +188,19 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // truth with each motor's power, plan 92 %, log 100 %, 0.13 W and 0.11 %. Mean
     // half-widths 1.08 % and 0.65 % of the energy (0.80 % and 0.63 % before the model
     // predicted with the free fit's covariance where a copper coefficient is held at zero:
-    // the quick set holds a wrist's, and the exact truth's worst error is 1.10 %).
+    // the quick set holds a wrist's, and the exact truth's worst error is 1.10 %). Since the
+    // twin reads positions at the step's time (the leapfrog reading, issue 33) the exact
+    // truth's structure is 0.155 W and its half-width 1.24 % at this rig's 3 substeps
+    // (1.06 % with the viscous change alone, 1.20 % at the new default of 1 substep): the
+    // positions used to run h/2 ahead, which partly lined them up with each step's power,
+    // the mean over the step, recorded at its start (docs/experiments.md#leapfrog-reading).
     assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
     assert!(exact.4 < 0.005 && exact.3 < 0.3, "{exact:?}");
     assert!(realistic.0 >= 80.0 && realistic.1 >= 80.0, "{realistic:?}");
     assert!(realistic.3 > 0.1 || realistic.4 > 0.001, "{realistic:?}");
     // ... with intervals that are not vacuous.
     assert!(
-        exact.2 < 1.2 && realistic.2 < 1.7,
+        exact.2 < 1.3 && realistic.2 < 1.7,
         "{exact:?} {realistic:?}"
     );
     // With each motor's power the exact truth's errors shrink (worst from the plan 0.67 %

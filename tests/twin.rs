@@ -48,7 +48,7 @@ fn col(f: impl Fn(usize) -> f64) -> Vec<f64> {
 }
 
 /// Each joint's RMS residual of the applied torque against exact inverse dynamics on the
-/// motion Rapier produced (the swing at the default 6 substeps), as a fraction of its RMS
+/// motion Rapier produced (the swing at the default 1 substep), as a fraction of its RMS
 /// torque, `loaded` with the rated payload (a 7 kg steel cube 5 cm beyond the flange) or
 /// not.
 fn torque_residuals(loaded: bool) -> [f64; 6] {
@@ -102,10 +102,11 @@ fn torque_residuals(loaded: bool) -> [f64; 6] {
 
 #[test]
 fn applied_torque_matches_exact_inverse_dynamics_on_rapiers_motion() {
-    // Within the 0.02 % fidelity target on every joint, unloaded (worst 0.017 %, joint 6, the
-    // first-order error of Rapier's implicit damping) and with the rated 7 kg (worst 0.017 %,
-    // joint 6; joint 1 0.002 %, which was 0.060 % while Rapier's friction-loss constraint also
-    // acted on sliding joints).
+    // Within the 0.02 % fidelity target on every joint, unloaded (worst 0.003 %, joint 1) and
+    // with the rated 7 kg (worst 0.011 %, joint 1), at one substep: at 6 substeps joint 6 was
+    // at 0.017 % while Rapier's implicit damping carried the viscous friction (first order in
+    // the substep), and joint 1 loaded at 0.060 % while Rapier's friction-loss constraint also
+    // acted on sliding joints (twin::physics).
     for loaded in [false, true] {
         for (i, rel) in torque_residuals(loaded).iter().enumerate() {
             assert!(

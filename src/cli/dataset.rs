@@ -8,8 +8,8 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use powertwin::dataset::bulk::{BulkSpec, Shard, item};
-use rayon::prelude::*;
+use powertwin::dataset::bulk::{BulkSpec, Shard, item, item_duration};
+use powertwin::dataset::schedule::longest_first;
 
 use super::TwinArgs;
 
@@ -88,26 +88,25 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
     );
     let simulated_ms = AtomicUsize::new(0);
     let start = Instant::now();
-    let results: Vec<Result<()>> = todo
-        .par_iter()
-        .map(|&j| {
-            let dir = args.out.join(format!("item_{j:06}"));
-            let (ds, _) = item(&spec, j).with_context(|| format!("item {j}"))?;
-            ds.write(&dir, args.twin.format)
-                .with_context(|| format!("writing {}", dir.display()))?;
-            let total = simulated_ms.fetch_add(
-                (ds.meta.summary.duration_s * 1e3) as usize,
-                Ordering::Relaxed,
-            );
-            let wall = start.elapsed().as_secs_f64();
-            bar.set_message(format!(
-                "{:.0} simulated s per wall s",
-                total as f64 / 1e3 / wall
-            ));
-            bar.inc(1);
-            Ok(())
-        })
-        .collect();
+    // Longest items first, so the batch ends without one long run alone on a core.
+    let duration = |&j: &usize| item_duration(&spec, j).unwrap_or(f64::INFINITY);
+    let results: Vec<Result<()>> = longest_first(&todo, duration, |&j| {
+        let dir = args.out.join(format!("item_{j:06}"));
+        let (ds, _) = item(&spec, j).with_context(|| format!("item {j}"))?;
+        ds.write(&dir, args.twin.format)
+            .with_context(|| format!("writing {}", dir.display()))?;
+        let total = simulated_ms.fetch_add(
+            (ds.meta.summary.duration_s * 1e3) as usize,
+            Ordering::Relaxed,
+        );
+        let wall = start.elapsed().as_secs_f64();
+        bar.set_message(format!(
+            "{:.0} simulated s per wall s",
+            total as f64 / 1e3 / wall
+        ));
+        bar.inc(1);
+        Ok(())
+    });
     bar.finish();
     let failed: Vec<String> = results
         .into_iter()

@@ -182,7 +182,7 @@ pub struct TwinArgs {
     #[arg(long, default_value_t = 0.001)]
     dt: f64,
     /// Rapier substeps per physics step.
-    #[arg(long, default_value_t = 6)]
+    #[arg(long, default_value_t = 1)]
     substeps: usize,
     /// Motor model: pmsm (P_mech + c tau^2 + P0) or efficiency (P_mech / eta, the paper's eq. 9).
     #[arg(long, default_value = "pmsm")]

@@ -30,7 +30,7 @@ use crate::cli::truth::Truth;
 use crate::cli::{TruthArgs, emit, noise_settings, sweep_name, write_all};
 
 /// Rapier substeps per physics step unless `--substeps` says otherwise.
-const DEFAULT_SUBSTEPS: usize = 6;
+const DEFAULT_SUBSTEPS: usize = 1;
 
 /// Chart size, px.
 const CHART_SIZE: (u32, u32) = (960, 600);

@@ -106,6 +106,39 @@ fn splitmix64(mut x: u64) -> u64 {
 /// Mass range of the steel cube items carry beside the tool, kg.
 const CUBE_KG: (f64, f64) = (0.5, 4.0);
 
+/// Draw an item's trajectory (the first draws of its RNG) and its description.
+fn draw_trajectory(
+    robot: &Robot,
+    rng: &mut ChaCha8Rng,
+) -> Result<(Box<dyn Trajectory>, serde_json::Value)> {
+    Ok(if rng.random_bool(0.5) {
+        let o = RandomFourierOptions {
+            accel_limits: default_accel_limits(robot),
+            ..RandomFourierOptions::default()
+        };
+        let f = random_fourier(robot, rng, &o)?;
+        let d = json!({"kind": "random fourier", "base_freq_hz": o.base_freq_hz, "harmonics": o.harmonics, "periods": o.periods,
+            "q0_rad": f.q0(), "a_rad": f.a(), "b_rad": f.b()});
+        (Box::new(f), d)
+    } else {
+        let o = RandomPointToPointOptions {
+            accel_limits: default_accel_limits(robot),
+            ..RandomPointToPointOptions::default()
+        };
+        let p = random_point_to_point(robot, rng, &o)?;
+        let d = json!({"kind": "random point to point", "points_rad": p.points(), "arrival_times_s": p.arrival_times()});
+        (Box::new(p), d)
+    })
+}
+
+/// Simulated duration of item `index` (s), without running it: how long its run will take,
+/// for scheduling the longest items first. Errors: as [`item`]'s trajectory draw.
+pub fn item_duration(spec: &BulkSpec, index: usize) -> Result<f64> {
+    let item_seed = splitmix64(spec.seed ^ splitmix64(index as u64));
+    let mut rng = ChaCha8Rng::seed_from_u64(item_seed);
+    Ok(draw_trajectory(spec.robot, &mut rng)?.0.duration())
+}
+
 /// Generate item `index` of the global set: a random Fourier or point-to-point motion within
 /// the robot's acceleration bounds ([`default_accel_limits`]), with no payload, the tool, or
 /// the tool and a steel cube of 0.5-4 kg (at most what the drive file's rated payload leaves
@@ -121,24 +154,7 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
     let item_seed = splitmix64(spec.seed ^ splitmix64(index as u64));
     let mut rng = ChaCha8Rng::seed_from_u64(item_seed);
     let robot = spec.robot;
-    let (traj, description): (Box<dyn Trajectory>, serde_json::Value) = if rng.random_bool(0.5) {
-        let o = RandomFourierOptions {
-            accel_limits: default_accel_limits(robot),
-            ..RandomFourierOptions::default()
-        };
-        let f = random_fourier(robot, &mut rng, &o)?;
-        let d = json!({"kind": "random fourier", "base_freq_hz": o.base_freq_hz, "harmonics": o.harmonics, "periods": o.periods,
-            "q0_rad": f.q0(), "a_rad": f.a(), "b_rad": f.b()});
-        (Box::new(f), d)
-    } else {
-        let o = RandomPointToPointOptions {
-            accel_limits: default_accel_limits(robot),
-            ..RandomPointToPointOptions::default()
-        };
-        let p = random_point_to_point(robot, &mut rng, &o)?;
-        let d = json!({"kind": "random point to point", "points_rad": p.points(), "arrival_times_s": p.arrival_times()});
-        (Box::new(p), d)
-    };
+    let (traj, description) = draw_trajectory(robot, &mut rng)?;
     let payload = match rng.random_range(0..3) {
         0 => None,
         1 => Some(spec.tool.clone()),

@@ -23,6 +23,7 @@ mod csv;
 pub mod generate;
 pub mod meta;
 mod parquet;
+pub mod schedule;
 
 use std::io::Write;
 use std::path::Path;

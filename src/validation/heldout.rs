@@ -15,6 +15,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::dataset::Dataset;
+use crate::dataset::schedule::longest_first;
 use crate::dynamics::ParamLayout;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
@@ -337,10 +338,12 @@ pub struct Runs {
 pub fn simulate(rig: &Rig, opts: &HeldoutOptions, progress: &dyn Progress) -> Result<Runs> {
     let motions = motions(rig.robot, opts)?;
     progress.stage("held-out motions: twin runs", motions.len());
-    let datasets = motions
-        .par_iter()
-        .enumerate()
-        .map(|(k, m)| {
+    // Longest runs first, so that no long run is left alone on one core at the end.
+    let indexed: Vec<(usize, &Motion)> = motions.iter().enumerate().collect();
+    let datasets = longest_first(
+        &indexed,
+        |(_, m)| m.trajectory.duration(),
+        |&(k, m)| {
             let description = serde_json::json!({
                 "kind": m.kind,
                 "experiment": "held-out benchmark",
@@ -358,8 +361,10 @@ pub fn simulate(rig: &Rig, opts: &HeldoutOptions, progress: &dyn Progress) -> Re
                 .map_err(|e| e.context(&format!("held-out motion {}", k + 1)))?;
             progress.advance();
             Ok(ds)
-        })
-        .collect::<Result<_>>()?;
+        },
+    )
+    .into_iter()
+    .collect::<Result<_>>()?;
     Ok(Runs { motions, datasets })
 }
 
