@@ -31,7 +31,7 @@ fn num(v: &Value, key: &str) -> f64 {
 
 /// Every documented field of results.json, with its type.
 fn check_schema(r: &Value) {
-    assert_eq!(r["schema_version"], 2);
+    assert_eq!(r["schema_version"], 3);
     assert_eq!(r["program"]["name"], "powertwin");
     for key in ["robot", "motor_model", "truth", "power_signal"] {
         assert!(r["settings"][key].is_string(), "settings.{key}");

@@ -66,7 +66,7 @@ fn docs_results_come_from_the_default_run() {
     assert_eq!(settings["noise"], true, "{settings}");
     assert_eq!(settings["noise_seed"], 0, "{settings}");
     assert_eq!(settings["substeps"], 1, "{settings}");
-    assert_eq!(json["schema_version"], 2);
+    assert_eq!(json["schema_version"], 3);
     let md = read("docs/results.md");
     assert!(
         md.lines()

@@ -11,6 +11,7 @@ use crate::identification::excitation_set::SetCriterion;
 use crate::identification::fit::{CvScore, Weighting};
 use crate::report::markdown::WELL_EXCITED_REL_STD_PCT;
 use crate::trajectory::Trajectory;
+use crate::validation::family::Family;
 use crate::validation::heldout::Heldout;
 use crate::validation::payloads::CaseRow;
 use crate::validation::reproduce::{Outcome, StageTime};
@@ -18,7 +19,7 @@ use crate::validation::score::ParamRow;
 use crate::validation::sweep::{Cell, Optimum};
 
 /// Version of this schema; bumped on any incompatible change.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// The whole file.
 #[derive(Debug, Clone, Serialize)]
@@ -44,6 +45,9 @@ pub struct Results {
     pub table4: Vec<CaseRow>,
     /// Figure 14.
     pub sweep: SweepResults,
+    /// The held-out benchmark across a family of robots we did not build, each identified
+    /// from its own identification set: per robot and pooled.
+    pub family: Family,
     /// Wall time per stage.
     pub timings: Vec<StageTime>,
     /// Wall time of the whole run, s.
@@ -295,6 +299,7 @@ impl Results {
                 optima: outcome.sweep.optima.clone(),
                 pareto: outcome.sweep.pareto.clone(),
             },
+            family: outcome.family.clone(),
             timings: outcome.timings.clone(),
             total_wall_s,
         }

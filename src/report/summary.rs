@@ -23,6 +23,7 @@ pub fn results_markdown(results: &Value, run: &str) -> String {
     let mut w = String::new();
     provenance(&mut w, results, run);
     heldout(&mut w, results);
+    family(&mut w, results);
     paper(&mut w, results);
     table3(&mut w, results);
     table4(&mut w, results);
@@ -168,6 +169,81 @@ fn heldout(w: &mut String, r: &Value) {
             ", at most {e:.2} % from the truth"
         )),
     );
+}
+
+/// The held-out benchmark across the family: pooled, then per robot.
+fn family(w: &mut String, r: &Value) {
+    let robots = list(r, "/family/robots");
+    if robots.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        w,
+        "## Robots we did not build (out of sample, across a family)\n"
+    );
+    let _ = writeln!(
+        w,
+        "{} robots drawn from the family of truths (family seed {}; docs/design/family.md): \
+         inertias off the URDF, their own friction laws, losses, cabinet load, controller and \
+         logger. Each is identified from its own identification set (the files are all \
+         identification sees) and judged on {} sets of held-out motions.\n",
+        robots.len(),
+        fixed(num(r, "/family/seed"), 0),
+        fixed(num(r, "/family/heldout_seeds"), 0),
+    );
+    let _ = writeln!(
+        w,
+        "| pooled | energy error, median | p95 | worst | above standby, worst | \
+         95 % interval coverage | median error / sigma (calibrated 0.67) |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
+    for (name, key) in [("from the log", "from_log"), ("from the plan", "from_plan")] {
+        let s = |f: &str| num(r, &format!("/family/{key}/{f}"));
+        let _ = writeln!(
+            w,
+            "| {name} | {} | {} | {} | {} | {} | {} |",
+            pct(s("energy_error_pct/median")),
+            pct(s("energy_error_pct/p95")),
+            pct(s("energy_error_pct/worst")),
+            pct(s("above_standby_error_pct/worst")),
+            s("coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),
+            fixed(s("median_z"), 2),
+        );
+    }
+    let _ = writeln!(
+        w,
+        "\nPower RMSE at the logged samples, worst motion: {} W. Lowest coverage of one \
+         robot: {} %.\n",
+        fixed(num(r, "/family/power_rmse_W/worst"), 2),
+        fixed(num(r, "/family/worst_robot_coverage_pct"), 0),
+    );
+    let _ = writeln!(
+        w,
+        "| robot | family seed | log rate Hz | averaging meter | cabinet seen W | power lag ms | \
+         from the log, median | worst | coverage |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|");
+    for b in robots {
+        let n = |f: &str| b.pointer(f).and_then(Value::as_f64);
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            fixed(n("/index"), 0),
+            fixed(n("/family_seed"), 0),
+            fixed(n("/rate_hz"), 0),
+            if b.pointer("/power_averaging").and_then(Value::as_bool) == Some(true) {
+                "yes"
+            } else {
+                "no"
+            },
+            fixed(n("/cabinet_seen_W"), 0),
+            fixed(n("/power_lag_s").map(|l| 1e3 * l), 0),
+            pct(n("/from_log/energy_error_pct/median")),
+            pct(n("/from_log/energy_error_pct/worst")),
+            n("/from_log/coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),
+        );
+    }
+    let _ = writeln!(w);
 }
 
 /// One line per experiment of the paper.

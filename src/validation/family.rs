@@ -38,6 +38,23 @@ pub struct FamilyOptions {
     pub heldout_seeds: usize,
 }
 
+impl FamilyOptions {
+    /// The family stage of `reproduce` on the IRB 1200: 4 robots of the default table from
+    /// family seed 1, each identified from the quick identification set (four excitations
+    /// of 20 s with 0, 2, 4.5 and 7 kg) and judged on 2 x 6 held-out motions up to 7 kg.
+    /// `quick`: 2 robots.
+    pub fn irb1200(quick: bool) -> FamilyOptions {
+        FamilyOptions {
+            robots: if quick { 2 } else { 4 },
+            seed: 1,
+            table: FamilyTable::default(),
+            idset: IdSetOptions::irb1200(true),
+            heldout: HeldoutOptions::irb1200(6),
+            heldout_seeds: 2,
+        }
+    }
+}
+
 /// The family seed of robot `robot`, attempt `attempt` (0, or a redraw), of the family
 /// `seed`: what `--truth family:SEED` takes to run that robot alone.
 pub fn family_seed(seed: u64, robot: usize, attempt: u64) -> u64 {

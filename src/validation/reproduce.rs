@@ -18,6 +18,7 @@ use crate::model::payload::Payload;
 use crate::trajectory::limits::IRB1200_ACCEL_LIMITS;
 use crate::trajectory::task::Scenario;
 use crate::validation::estimators::{EstimatorResult, compare};
+use crate::validation::family::{self, Family, FamilyOptions};
 use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSet, IdSetOptions};
 use crate::validation::payloads::{self, Cases};
@@ -39,6 +40,8 @@ pub struct Plan {
     pub idset: IdSetOptions,
     /// The held-out benchmark.
     pub heldout: HeldoutOptions,
+    /// The held-out benchmark across a family of robots we did not build.
+    pub family: FamilyOptions,
 }
 
 impl Plan {
@@ -77,6 +80,7 @@ impl Plan {
             scenario,
             idset: IdSetOptions::irb1200(quick),
             heldout: HeldoutOptions::irb1200(if quick { 12 } else { 30 }),
+            family: FamilyOptions::irb1200(quick),
         })
     }
 }
@@ -112,6 +116,8 @@ pub struct Outcome {
     pub cases: Cases,
     /// Figure 14.
     pub sweep: Sweep,
+    /// The held-out benchmark across the family.
+    pub family: Family,
     /// Wall time per stage.
     pub timings: Vec<StageTime>,
 }
@@ -129,14 +135,6 @@ impl Outcome {
 /// (side-by-side stages overlap).
 pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     let mut timings = Vec::new();
-    let lap = |clock: &mut Instant, stage: &str| -> StageTime {
-        let t = StageTime {
-            stage: stage.to_string(),
-            wall_s: clock.elapsed().as_secs_f64(),
-        };
-        *clock = Instant::now();
-        t
-    };
     let mut clock = Instant::now();
     let planned = sweep::plan(rig.robot, &plan.scenario)?;
     timings.push(lap(&mut clock, "task planned for every sweep cell"));
@@ -196,22 +194,77 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     let (idset, model, parameters, heldout, heldout_datasets, identified_times) = identified?;
     timings.extend(paper_times);
     timings.extend(identified_times);
-    let last = steps
-        .trajectories
-        .last()
-        .ok_or_else(|| Error::InvalidInput("no step ran".into()))?;
-    let efficiency = DATASHEET_EFFICIENCY;
     progress.stage(
-        "Table 4 and Figure 14: tool and load cases, speed x load sweep",
+        "Table 4, Figure 14 and the family: tool and load cases, speed x load sweep, robots we did not build",
         0,
     );
-    let (cases, sweep) = rayon::join(
+    let ((cases, sweep), family) = rayon::join(
+        || tables_and_sweep(rig, plan, &steps, &model, planned, &together),
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let family = family::run(rig, &plan.family, &together)?;
+            Ok((
+                family,
+                lap(
+                    &mut clock,
+                    "family of truths: robots drawn, identified and judged (side by side)",
+                ),
+            ))
+        },
+    );
+    let (cases, cases_time) = cases?;
+    let (sweep, sweep_time) = sweep?;
+    let (family, family_time) = family?;
+    timings.extend([cases_time, sweep_time, family_time]);
+    Ok(Outcome {
+        steps,
+        estimators,
+        idset,
+        model,
+        parameters,
+        heldout,
+        heldout_datasets,
+        cases,
+        sweep,
+        family,
+        timings,
+    })
+}
+
+/// The wall time since `clock` as stage `stage`; restarts the clock.
+fn lap(clock: &mut Instant, stage: &str) -> StageTime {
+    let t = StageTime {
+        stage: stage.to_string(),
+        wall_s: clock.elapsed().as_secs_f64(),
+    };
+    *clock = Instant::now();
+    t
+}
+
+/// A stage's result with its wall time.
+type Timed<T> = Result<(T, StageTime)>;
+
+/// Table 4 beside the sweep.
+fn tables_and_sweep(
+    rig: &Rig,
+    plan: &Plan,
+    steps: &Steps,
+    model: &PowerModel,
+    planned: Vec<sweep::Planned>,
+    together: &Together,
+) -> (Timed<Cases>, Timed<Sweep>) {
+    let efficiency = DATASHEET_EFFICIENCY;
+    let Some(last) = steps.trajectories.last() else {
+        let none = || Error::InvalidInput("no step ran".into());
+        return (Err(none()), Err(none()));
+    };
+    rayon::join(
         || -> Result<_> {
             let mut clock = Instant::now();
             let cases = payloads::run(
                 rig,
                 &steps.model,
-                &model,
+                model,
                 last,
                 Route::Fourier {
                     base_freq_hz: 0.1,
@@ -219,7 +272,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
                 },
                 &plan.cases,
                 efficiency,
-                &together,
+                together,
             )?;
             Ok((
                 cases,
@@ -232,28 +285,13 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
                 rig,
                 &plan.scenario,
                 planned,
-                Some((&model, efficiency)),
-                &together,
+                Some((model, efficiency)),
+                together,
             )?;
             Ok((
                 sweep,
                 lap(&mut clock, "pick-and-place sweep (Figure 14; side by side)"),
             ))
         },
-    );
-    let (cases, cases_time) = cases?;
-    let (sweep, sweep_time) = sweep?;
-    timings.extend([cases_time, sweep_time]);
-    Ok(Outcome {
-        steps,
-        estimators,
-        idset,
-        model,
-        parameters,
-        heldout,
-        heldout_datasets,
-        cases,
-        sweep,
-        timings,
-    })
+    )
 }
