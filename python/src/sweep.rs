@@ -1,0 +1,213 @@
+//! `sweep`: a task scenario over speeds and loads, as `powertwin sweep` runs it.
+
+use std::path::PathBuf;
+
+use powertwin::dataset::{Dataset, Format};
+use powertwin::identification::consistent::{IdentifiedTwin, Options};
+use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
+use powertwin::measurement::PowerSignal;
+use powertwin::report::figures::energy_chart;
+use powertwin::report::plot::write_chart;
+use powertwin::trajectory::task::Scenario;
+use powertwin::validation::rig::Silent;
+use powertwin::validation::sweep::{self as lib_sweep, NO_PHYSICS_CHECK, TwinChoice};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::model::{PyModel, inner};
+use crate::robot::PyRobot;
+use crate::runs::twin_options;
+use crate::{ctx, parse, value_error};
+
+/// `sweep.json` (the CLI's).
+#[derive(Serialize)]
+struct SweepFile<'a> {
+    scenario: &'a str,
+    twin: &'static str,
+    twin_note: &'static str,
+    cells: &'a [lib_sweep::Cell],
+    optima: &'a [lib_sweep::Optimum],
+    pareto: &'a [usize],
+}
+
+/// `sweep.json` of `twin="none"`.
+#[derive(Serialize)]
+struct PredictedFile<'a> {
+    scenario: &'a str,
+    twin: &'static str,
+    twin_note: &'static str,
+    power_signal: PowerSignal,
+    cells: &'a [lib_sweep::PredictedCell],
+    optima: &'a [lib_sweep::PredictedOptimum],
+    pareto: &'a [usize],
+}
+
+/// The scenario (a file or the built-in pick and place) with `speeds` and `loads` (m/s, kg)
+/// replacing its grid when given.
+fn scenario(path: Option<PathBuf>, speeds: Vec<f64>, loads: Vec<f64>) -> PyResult<Scenario> {
+    let mut s = match &path {
+        Some(p) => Scenario::from_file(p).map_err(ctx(""))?,
+        None => Scenario::builtin().map_err(ctx(""))?,
+    };
+    if !speeds.is_empty() {
+        s.sweep.speeds_m_s = speeds;
+    }
+    if !loads.is_empty() {
+        s.sweep.loads_kg = loads;
+    }
+    Ok(s)
+}
+
+/// Write the cells' datasets in parallel (each atomically), as the CLI's `write_all`.
+fn write_datasets(items: &[(String, &Dataset)], dir: &std::path::Path, format: Format) -> PyResult<()> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::os_error("creating", dir, &e))?;
+    items
+        .par_iter()
+        .map(|(name, ds)| {
+            let path = dir.join(name);
+            ds.write(&path, format)
+                .map_err(ctx(format!("writing {}", path.display())))
+        })
+        .collect()
+}
+
+/// Run a task scenario over speeds and loads on the twin (or, with `twin="none"`, price the
+/// plans with the model alone), as `powertwin sweep` does: returns `(sweep_json, flagged)`,
+/// the text of sweep.json and the message listing the flagged cells (torque saturated,
+/// tracking lost; `None` when none is flagged or `allow_overload`). With `out`, writes each
+/// cell's dataset, sweep.json and the chart there, as the CLI.
+#[pyfunction]
+#[pyo3(signature = (robot, model, scenario_path, speeds, loads, twin, opts, out, format, allow_overload))]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep(
+    py: Python<'_>,
+    robot: &PyRobot,
+    model: Option<PyRef<'_, PyModel>>,
+    scenario_path: Option<PathBuf>,
+    speeds: Vec<f64>,
+    loads: Vec<f64>,
+    twin: &str,
+    opts: &Bound<'_, PyDict>,
+    out: Option<PathBuf>,
+    format: &str,
+    allow_overload: bool,
+) -> PyResult<(String, Option<String>)> {
+    let setup = twin_options(opts)?.setup(robot, &[])?;
+    let scenario = scenario(scenario_path, speeds, loads)?;
+    let choice: TwinChoice = parse("twin", twin)?;
+    let format: Format = parse("format", format)?;
+    if !allow_overload {
+        for &load in &scenario.sweep.loads_kg {
+            powertwin::model::payload::check_rated(
+                scenario.max_payload_kg(load),
+                setup.drive.rated_payload_kg(),
+                &format!("scenario '{}' at load level {load} kg", scenario.name),
+            )
+            .map_err(|e| value_error(format!("{e}; pass --allow-overload to run it anyway")))?;
+        }
+    }
+    let model: Option<&PowerModel> = model.as_deref().map(inner);
+    let r = &robot.robot;
+    py.detach(|| -> PyResult<(String, Option<String>)> {
+        let planned = lib_sweep::plan(r, &scenario).map_err(ctx(""))?;
+        let needs_model = || {
+            model.ok_or_else(|| value_error(format!("--twin {} needs --model", choice.name())))
+        };
+        if choice == TwinChoice::None {
+            let m = needs_model()?;
+            let result = lib_sweep::predict(r, &scenario, planned, (m, DATASHEET_EFFICIENCY))
+                .map_err(ctx(""))?;
+            let file = PredictedFile {
+                scenario: &scenario.name,
+                twin: TwinChoice::None.name(),
+                twin_note: NO_PHYSICS_CHECK,
+                power_signal: m.signal,
+                cells: &result.cells,
+                optima: &result.optima,
+                pareto: &result.pareto,
+            };
+            let json = serde_json::to_string_pretty(&file)
+                .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
+            if let Some(dir) = &out {
+                std::fs::create_dir_all(dir).map_err(|e| crate::os_error("creating", dir, &e))?;
+                powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes())
+                    .map_err(ctx(""))?;
+            }
+            return Ok((json, None));
+        }
+        let identified = match choice {
+            TwinChoice::Identified => Some(
+                IdentifiedTwin::from_model(r, needs_model()?, &Options::default())
+                    .and_then(|t| t.with_brakes(setup.drive.brakes()))
+                    .map_err(ctx("--twin identified: the identified model's twin"))?,
+            ),
+            _ => None,
+        };
+        let input = powertwin::validation::rig::Rig {
+            robot: r,
+            urdf: robot.urdf.clone(),
+            drive: &setup.drive,
+            twin: setup.twin.clone(),
+            sensor: setup.sensor,
+        };
+        let rig = match &identified {
+            Some(t) => lib_sweep::identified_rig(t, &input),
+            None => input,
+        };
+        let result = lib_sweep::run(
+            &rig,
+            &scenario,
+            planned,
+            model.map(|m| (m, DATASHEET_EFFICIENCY)),
+            &Silent,
+        )
+        .map_err(ctx(""))?;
+        let file = SweepFile {
+            scenario: &scenario.name,
+            twin: choice.name(),
+            twin_note: choice.statement(),
+            cells: &result.cells,
+            optima: &result.optima,
+            pareto: &result.pareto,
+        };
+        let json = serde_json::to_string_pretty(&file)
+            .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
+        if let Some(dir) = &out {
+            let names: Vec<(String, &Dataset)> = result
+                .cells
+                .iter()
+                .zip(&result.datasets)
+                .map(|(c, d)| (format!("sweep_{}mps_{}kg", c.speed_m_s, c.load_kg), d))
+                .collect();
+            write_datasets(&names, dir, format)?;
+            powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes())
+                .map_err(ctx(""))?;
+            write_chart(&energy_chart(&result), dir, "energy_vs_speed", 960, 600)
+                .map_err(ctx(""))?;
+        }
+        Ok((json, flagged(&result.cells, allow_overload)))
+    })
+}
+
+/// The CLI's message listing the flagged cells, or `None`.
+fn flagged(cells: &[lib_sweep::Cell], allowed: bool) -> Option<String> {
+    let flagged: Vec<String> = cells
+        .iter()
+        .filter_map(|c| {
+            c.flag_reason()
+                .map(|why| format!("{} m/s, {} kg: {why}", c.speed_m_s, c.load_kg))
+        })
+        .collect();
+    if flagged.is_empty() || allowed {
+        return None;
+    }
+    Some(format!(
+        "{} of {} sweep cells are flagged: the twin did not perform the task as planned, so \
+         their energies are not the task's ({}); pass allow_overload=True to accept them",
+        flagged.len(),
+        cells.len(),
+        flagged.join("; ")
+    ))
+}
