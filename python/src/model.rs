@@ -194,6 +194,27 @@ pub fn identify(
     })
 }
 
+impl PyModel {
+    /// Parse and check a model file's text, as the CLI's `read_model`.
+    fn parse(text: &str, shown: &str, robot: &PyRobot) -> PyResult<PyModel> {
+        let doc: serde_json::Value = serde_json::from_str(text)
+            .map_err(|e| value_error(format!("{shown}: not valid JSON: {e}")))?;
+        let v = doc.get("model").cloned().unwrap_or_else(|| doc.clone());
+        check_schema_version(&v).map_err(ctx(format!("reading {shown}")))?;
+        let model: PowerModel = serde_json::from_value(v)
+            .map_err(|e| value_error(format!("{shown}: not a powertwin model: {e}")))?;
+        model
+            .validate(&robot.robot)
+            .map_err(ctx(format!("checking {shown}")))?;
+        Ok(PyModel {
+            robot: robot.robot.clone(),
+            model,
+            estimate: None,
+            doc,
+        })
+    }
+}
+
 /// A plan's price as a dict.
 fn plan_dict<'py>(py: Python<'py>, p: &PlanPrice, t0: f64) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -213,26 +234,16 @@ impl PyModel {
     /// Read a model file written by `identify` (or a bare model) for `robot`, as `powertwin
     /// predict --model` does (schema version checked, model checked against the robot).
     #[staticmethod]
-    fn load(py: Python<'_>, path: PathBuf, robot: &PyRobot) -> PyResult<PyModel> {
-        let shown = path.display().to_string();
+    fn load(path: PathBuf, robot: &PyRobot) -> PyResult<PyModel> {
         let text = std::fs::read_to_string(&path)
             .map_err(|e| crate::os_error("reading", &path, &e))?;
-        let doc: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| value_error(format!("{shown}: not valid JSON: {e}")))?;
-        let v = doc.get("model").cloned().unwrap_or_else(|| doc.clone());
-        check_schema_version(&v).map_err(ctx(format!("reading {shown}")))?;
-        let model: PowerModel = serde_json::from_value(v)
-            .map_err(|e| value_error(format!("{shown}: not a powertwin model: {e}")))?;
-        model
-            .validate(&robot.robot)
-            .map_err(ctx(format!("checking {shown}")))?;
-        let _ = py;
-        Ok(PyModel {
-            robot: robot.robot.clone(),
-            model,
-            estimate: None,
-            doc,
-        })
+        PyModel::parse(&text, &path.display().to_string(), robot)
+    }
+
+    /// A model from the text of a model file (`shown` names it in errors; pickling).
+    #[staticmethod]
+    fn _from_json(text: &str, shown: &str, robot: &PyRobot) -> PyResult<PyModel> {
+        PyModel::parse(text, shown, robot)
     }
 
     /// Write the model file (JSON; what `identify --out` writes for an identified model, the
