@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import pathlib
 import warnings
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Optional, Sequence, Union
@@ -445,6 +446,13 @@ def sweep(
     doc = json.loads(text)
     doc["table"] = cells_table(doc["cells"])
     return doc
+
+
+def _write_text_atomic(path: pathlib.Path, text: str) -> None:
+    """Write `text` to `path` through a temporary sibling renamed into place."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(text)
+    os.replace(tmp, path)
 
 
 def cells_table(cells: Sequence[Mapping[str, Any]]) -> dict:

@@ -7,6 +7,7 @@
 //! the library come back as `ValueError` (bad input) or `OSError` (files), with the CLI's
 //! messages.
 
+mod cells;
 mod model;
 mod robot;
 mod runs;
@@ -66,6 +67,11 @@ fn _powertwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(model::identify, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
-    m.add("MAX_FIT_RATE_HZ", powertwin::identification::tuning::MAX_FIT_RATE_HZ)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_cell, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_assemble, m)?)?;
+    m.add(
+        "MAX_FIT_RATE_HZ",
+        powertwin::identification::tuning::MAX_FIT_RATE_HZ,
+    )?;
     Ok(())
 }

@@ -235,8 +235,8 @@ impl PyModel {
     /// predict --model` does (schema version checked, model checked against the robot).
     #[staticmethod]
     fn load(path: PathBuf, robot: &PyRobot) -> PyResult<PyModel> {
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| crate::os_error("reading", &path, &e))?;
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| crate::os_error("reading", &path, &e))?;
         PyModel::parse(&text, &path.display().to_string(), robot)
     }
 
@@ -350,7 +350,8 @@ impl PyModel {
                 ),
                 (None, Some(t), Some(q)) => {
                     let traj = Sampled::new(t, q, dq, ddq).map_err(ctx("trajectory"))?;
-                    check_limits(robot, &traj, LIMIT_CHECK_DT_S, None).map_err(ctx("trajectory"))?;
+                    check_limits(robot, &traj, LIMIT_CHECK_DT_S, None)
+                        .map_err(ctx("trajectory"))?;
                     (traj, "trajectory".to_string())
                 }
                 _ => return Err(value_error("a trajectory file or t_s and q_rad is needed")),

@@ -144,10 +144,7 @@ impl PyRobot {
         let py = slf.py();
         let this = slf.get();
         let ctor = py.get_type::<PyRobot>().getattr("_from_state")?.unbind();
-        let urdf = this
-            .urdf_path
-            .clone()
-            .map(|p| (p, this.urdf_text.clone()));
+        let urdf = this.urdf_path.clone().map(|p| (p, this.urdf_text.clone()));
         let args = (urdf, this.drive_file.clone(), this.lock.clone())
             .into_pyobject(py)?
             .into_any()

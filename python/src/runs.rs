@@ -36,7 +36,9 @@ fn columns_of(a: &PyReadonlyArray2<'_, f64>) -> Vec<Vec<f64>> {
 /// Joint-major series (m of n) as an n x m array.
 pub fn array2<'py>(py: Python<'py>, cols: &[Vec<f64>]) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let n = cols.first().map_or(0, Vec::len);
-    let rows: Vec<Vec<f64>> = (0..n).map(|k| cols.iter().map(|c| c[k]).collect()).collect();
+    let rows: Vec<Vec<f64>> = (0..n)
+        .map(|k| cols.iter().map(|c| c[k]).collect())
+        .collect();
     if rows.is_empty() {
         return Ok(PyArray2::zeros(py, [0, cols.len()], false));
     }
@@ -198,7 +200,12 @@ fn run_dict<'py>(py: Python<'py>, ds: &Dataset, label: &str) -> PyResult<Bound<'
     d.set_item("duration_s", s.duration_s)?;
     d.set_item("energy_total_J", s.energy_total_j)?;
     d.set_item("energy_grid_J", s.energy_grid_j)?;
-    d.set_item("log", PyLog { log: ds.log(label).map_err(ctx(""))? })?;
+    d.set_item(
+        "log",
+        PyLog {
+            log: ds.log(label).map_err(ctx(""))?,
+        },
+    )?;
     Ok(d)
 }
 
@@ -249,7 +256,11 @@ pub fn simulate<'py>(
             .map_err(ctx("trajectory"))?;
             (traj, "<arrays>".to_string())
         }
-        _ => return Err(value_error("simulate needs a trajectory file or t_s and q_rad")),
+        _ => {
+            return Err(value_error(
+                "simulate needs a trajectory file or t_s and q_rad",
+            ));
+        }
     };
     let events: Vec<PayloadEvent> = setup
         .payload
@@ -262,7 +273,9 @@ pub fn simulate<'py>(
         .collect();
     let description = json!({"kind": "sampled", "file": file,
         "interpolation": format!("{:?}", traj.interpolation()), "start_time_s": traj.start_time()});
-    let label = out.as_ref().map_or(file.clone(), |o| o.display().to_string());
+    let label = out
+        .as_ref()
+        .map_or(file.clone(), |o| o.display().to_string());
     let ds = py.detach(|| -> PyResult<Dataset> {
         let (ds, _) = twin_simulate(&RunSpec {
             robot: &robot.robot,

@@ -16,6 +16,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::cells::cell_from_json;
 use crate::model::{PyModel, inner};
 use crate::robot::PyRobot;
 use crate::runs::twin_options;
@@ -61,7 +62,11 @@ fn scenario(path: Option<PathBuf>, speeds: Vec<f64>, loads: Vec<f64>) -> PyResul
 }
 
 /// Write the cells' datasets in parallel (each atomically), as the CLI's `write_all`.
-fn write_datasets(items: &[(String, &Dataset)], dir: &std::path::Path, format: Format) -> PyResult<()> {
+fn write_datasets(
+    items: &[(String, &Dataset)],
+    dir: &std::path::Path,
+    format: Format,
+) -> PyResult<()> {
     std::fs::create_dir_all(dir).map_err(|e| crate::os_error("creating", dir, &e))?;
     items
         .par_iter()
@@ -112,9 +117,8 @@ pub fn sweep(
     let r = &robot.robot;
     py.detach(|| -> PyResult<(String, Option<String>)> {
         let planned = lib_sweep::plan(r, &scenario).map_err(ctx(""))?;
-        let needs_model = || {
-            model.ok_or_else(|| value_error(format!("--twin {} needs --model", choice.name())))
-        };
+        let needs_model =
+            || model.ok_or_else(|| value_error(format!("--twin {} needs --model", choice.name())));
         if choice == TwinChoice::None {
             let m = needs_model()?;
             let result = lib_sweep::predict(r, &scenario, planned, (m, DATASHEET_EFFICIENCY))
@@ -210,4 +214,143 @@ fn flagged(cells: &[lib_sweep::Cell], allowed: bool) -> Option<String> {
         cells.len(),
         flagged.join("; ")
     ))
+}
+
+/// The rig of `choice` (the URDF's twin, or the identified model's) for `robot`.
+fn with_rig<T>(
+    robot: &PyRobot,
+    setup: &crate::robot::Setup,
+    choice: TwinChoice,
+    model: Option<&PowerModel>,
+    f: impl FnOnce(&powertwin::validation::rig::Rig) -> PyResult<T>,
+) -> PyResult<T> {
+    let identified = match choice {
+        TwinChoice::Identified => Some(
+            IdentifiedTwin::from_model(
+                &robot.robot,
+                model.ok_or_else(|| value_error("--twin identified needs --model"))?,
+                &Options::default(),
+            )
+            .and_then(|t| t.with_brakes(setup.drive.brakes()))
+            .map_err(ctx("--twin identified: the identified model's twin"))?,
+        ),
+        TwinChoice::Urdf => None,
+        TwinChoice::None => return Err(value_error("twin='none' runs no cell on a twin")),
+    };
+    let input = powertwin::validation::rig::Rig {
+        robot: &robot.robot,
+        urdf: robot.urdf.clone(),
+        drive: &setup.drive,
+        twin: setup.twin.clone(),
+        sensor: setup.sensor,
+    };
+    match &identified {
+        Some(t) => f(&lib_sweep::identified_rig(t, &input)),
+        None => f(&input),
+    }
+}
+
+/// Cell `k` (load-major: load `k / len(speeds)`, speed `k % len(speeds)`) of the sweep
+/// `sweep(...)` runs with the same arguments, run alone (same plan, same twin run, same
+/// prediction): the cell's JSON (as in sweep.json), its dataset written under `out` when
+/// given. For running a sweep's cells on many processes; `sweep_assemble` joins them.
+#[pyfunction]
+#[pyo3(signature = (robot, model, scenario_path, speeds, loads, k, twin, opts, out, format))]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_cell(
+    py: Python<'_>,
+    robot: &PyRobot,
+    model: Option<PyRef<'_, PyModel>>,
+    scenario_path: Option<PathBuf>,
+    speeds: Vec<f64>,
+    loads: Vec<f64>,
+    k: usize,
+    twin: &str,
+    opts: &Bound<'_, PyDict>,
+    out: Option<PathBuf>,
+    format: &str,
+) -> PyResult<String> {
+    let setup = twin_options(opts)?.setup(robot, &[])?;
+    let scenario = scenario(scenario_path, speeds, loads)?;
+    let choice: TwinChoice = parse("twin", twin)?;
+    let format: Format = parse("format", format)?;
+    let (ns, nl) = (
+        scenario.sweep.speeds_m_s.len(),
+        scenario.sweep.loads_kg.len(),
+    );
+    if k >= ns * nl {
+        return Err(value_error(format!(
+            "k={k}: the grid has {} cells",
+            ns * nl
+        )));
+    }
+    let (speed, load) = (
+        scenario.sweep.speeds_m_s[k % ns],
+        scenario.sweep.loads_kg[k / ns],
+    );
+    let model: Option<&PowerModel> = model.as_deref().map(inner);
+    py.detach(|| {
+        let plan = scenario.plan(&robot.robot, speed, load).map_err(|e| {
+            py_context(e.context(&format!(
+                "scenario '{}' at {speed} m/s with load {load} kg",
+                scenario.name
+            )))
+        })?;
+        let planned = lib_sweep::Planned { speed, load, plan };
+        let predictor = model.map(|m| (m, DATASHEET_EFFICIENCY));
+        let (cell, ds, _) = with_rig(robot, &setup, choice, model, |rig| {
+            lib_sweep::run_cell(rig, &scenario, k, planned, predictor).map_err(ctx(""))
+        })?;
+        if let Some(dir) = &out {
+            let name = format!("sweep_{}mps_{}kg", cell.speed_m_s, cell.load_kg);
+            write_datasets(&[(name, &ds)], dir, format)?;
+        }
+        serde_json::to_string(&cell).map_err(|e| value_error(e.to_string()))
+    })
+}
+
+fn py_context(e: powertwin::Error) -> PyErr {
+    crate::py_err("", &e)
+}
+
+/// sweep.json of cells run separately (`sweep_cell`, JSON texts in grid order) with the
+/// same arguments: the optima and Pareto front as `sweep(...)` computes them. Returns
+/// `(sweep_json, flagged)` as `sweep`.
+#[pyfunction]
+#[pyo3(signature = (robot, model, scenario_path, speeds, loads, twin, cells, allow_overload))]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_assemble(
+    py: Python<'_>,
+    robot: &PyRobot,
+    model: Option<PyRef<'_, PyModel>>,
+    scenario_path: Option<PathBuf>,
+    speeds: Vec<f64>,
+    loads: Vec<f64>,
+    twin: &str,
+    cells: Vec<String>,
+    allow_overload: bool,
+) -> PyResult<(String, Option<String>)> {
+    let scenario = scenario(scenario_path, speeds, loads)?;
+    let choice: TwinChoice = parse("twin", twin)?;
+    let cells: Vec<lib_sweep::Cell> = cells
+        .iter()
+        .map(|c| cell_from_json(c))
+        .collect::<PyResult<_>>()?;
+    let model: Option<&PowerModel> = model.as_deref().map(inner);
+    py.detach(|| {
+        let predictor = model.map(|m| (m, DATASHEET_EFFICIENCY));
+        let (optima, pareto) =
+            lib_sweep::assemble(&robot.robot, &scenario, &cells, predictor).map_err(ctx(""))?;
+        let file = SweepFile {
+            scenario: &scenario.name,
+            twin: choice.name(),
+            twin_note: choice.statement(),
+            cells: &cells,
+            optima: &optima,
+            pareto: &pareto,
+        };
+        let json = serde_json::to_string_pretty(&file)
+            .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
+        Ok((json, flagged(&cells, allow_overload)))
+    })
 }
