@@ -36,7 +36,8 @@ def main() -> None:
     held_out = runs[2]
     from_log = model.predict(held_out["log"])
     from_plan = model.predict_trajectory(plans[2]["t_s"], plans[2]["q_rad"])
-    truth = held_out["energy_grid_J"] if model.signal == "bus" else held_out["energy_total_J"]
+    clipped = model.signal != "total"
+    truth = held_out["energy_grid_J"] if clipped else held_out["energy_total_J"]
     print(f"held-out run ({model.signal} power): measured {from_log.measured_J:.1f} J")
     print(f"  predicted from its log:  {from_log.energy_J:.1f} ± {from_log.interval_J:.1f} J (95 %), "
           f"error {from_log.error_pct:+.2f} %, power RMSE {from_log.power_rmse_W:.2f} W")
