@@ -142,8 +142,15 @@ fn plan_file(c: &mut Criterion) {
             let traj = Sampled::new(t.clone(), q.clone(), None, None).expect("samples");
             powertwin::trajectory::limits::check_limits(&robot, &traj, LIMIT_CHECK_DT_S, None)
                 .expect("within limits");
-            price(&model, &robot, &traj, &[], DATASHEET_EFFICIENCY, traj.sample_times())
-                .expect("prices")
+            price(
+                &model,
+                &robot,
+                &traj,
+                &[],
+                DATASHEET_EFFICIENCY,
+                traj.sample_times(),
+            )
+            .expect("prices")
         })
     });
 }
