@@ -87,6 +87,49 @@ fn widths(w: Option<std::collections::HashMap<String, f64>>) -> PyResult<PriorWi
     Ok(out)
 }
 
+/// The candidate estimators of `method` and the weighting (the CLI's `--method`,
+/// `--weighting`).
+fn estimators(method: &str, weighting: Option<&str>) -> PyResult<(Vec<Estimator>, Weighting)> {
+    let candidates = match method {
+        "auto" => vec![Estimator::Total, Estimator::Pmsm],
+        "total" => vec![Estimator::Total],
+        "pmsm" => vec![Estimator::Pmsm],
+        other => {
+            return Err(value_error(format!(
+                "method={other:?}: expected 'auto', 'total' or 'pmsm'"
+            )));
+        }
+    };
+    let weighting = match weighting {
+        None => FitOptions::default().weighting,
+        Some("none") => Weighting::None,
+        Some("per-log") => Weighting::PerLog,
+        Some("power-level") => Weighting::PowerLevel,
+        Some(w) => {
+            return Err(value_error(format!(
+                "weighting={w:?}: expected 'none', 'per-log' or 'power-level'"
+            )));
+        }
+    };
+    Ok((candidates, weighting))
+}
+
+/// Refuse logs whose joint count is not the robot's (the CLI's message).
+fn check_dof(robot: &PyRobot, logs: &[powertwin::measurement::Log]) -> PyResult<()> {
+    for log in logs {
+        if log.dof() != robot.robot.dof() {
+            return Err(value_error(format!(
+                "{}: {} joint columns, robot '{}' has {} joints",
+                log.source,
+                log.dof(),
+                robot.robot.name(),
+                robot.robot.dof()
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Identify a power model from logs, as `powertwin identify --method auto|total|pmsm` does
 /// (the estimator chosen by cross-validation; physically consistent unless `unconstrained`;
 /// the prior from the URDF and the robot's drive file unless `prior=False`). The held-out
@@ -110,39 +153,9 @@ pub fn identify(
     prior: bool,
     prior_widths: Option<std::collections::HashMap<String, f64>>,
 ) -> PyResult<PyModel> {
-    let candidates = match method {
-        "auto" => vec![Estimator::Total, Estimator::Pmsm],
-        "total" => vec![Estimator::Total],
-        "pmsm" => vec![Estimator::Pmsm],
-        other => {
-            return Err(value_error(format!(
-                "method={other:?}: expected 'auto', 'total' or 'pmsm'"
-            )));
-        }
-    };
-    let weighting = match weighting.as_deref() {
-        None => FitOptions::default().weighting,
-        Some("none") => Weighting::None,
-        Some("per-log") => Weighting::PerLog,
-        Some("power-level") => Weighting::PowerLevel,
-        Some(w) => {
-            return Err(value_error(format!(
-                "weighting={w:?}: expected 'none', 'per-log' or 'power-level'"
-            )));
-        }
-    };
+    let (candidates, weighting) = estimators(method, weighting.as_deref())?;
     let logs: Vec<powertwin::measurement::Log> = logs.iter().map(|l| l.log.clone()).collect();
-    for log in &logs {
-        if log.dof() != robot.robot.dof() {
-            return Err(value_error(format!(
-                "{}: {} joint columns, robot '{}' has {} joints",
-                log.source,
-                log.dof(),
-                robot.robot.name(),
-                robot.robot.dof()
-            )));
-        }
-    }
+    check_dof(robot, &logs)?;
     let prior = if prior {
         let drive = robot.drive()?;
         Some(

@@ -121,78 +121,86 @@ pub fn sweep(
             || model.ok_or_else(|| value_error(format!("--twin {} needs --model", choice.name())));
         if choice == TwinChoice::None {
             let m = needs_model()?;
-            let result = lib_sweep::predict(r, &scenario, planned, (m, DATASHEET_EFFICIENCY))
-                .map_err(ctx(""))?;
-            let file = PredictedFile {
-                scenario: &scenario.name,
-                twin: TwinChoice::None.name(),
-                twin_note: NO_PHYSICS_CHECK,
-                power_signal: m.signal,
-                cells: &result.cells,
-                optima: &result.optima,
-                pareto: &result.pareto,
-            };
-            let json = serde_json::to_string_pretty(&file)
-                .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
-            if let Some(dir) = &out {
-                std::fs::create_dir_all(dir).map_err(|e| crate::os_error("creating", dir, &e))?;
-                powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes())
-                    .map_err(ctx(""))?;
-            }
-            return Ok((json, None));
+            return Ok((
+                predicted_json(r, &scenario, planned, m, out.as_deref())?,
+                None,
+            ));
         }
-        let identified = match choice {
-            TwinChoice::Identified => Some(
-                IdentifiedTwin::from_model(r, needs_model()?, &Options::default())
-                    .and_then(|t| t.with_brakes(setup.drive.brakes()))
-                    .map_err(ctx("--twin identified: the identified model's twin"))?,
-            ),
-            _ => None,
-        };
-        let input = powertwin::validation::rig::Rig {
-            robot: r,
-            urdf: robot.urdf.clone(),
-            drive: &setup.drive,
-            twin: setup.twin.clone(),
-            sensor: setup.sensor,
-        };
-        let rig = match &identified {
-            Some(t) => lib_sweep::identified_rig(t, &input),
-            None => input,
-        };
-        let result = lib_sweep::run(
-            &rig,
-            &scenario,
-            planned,
-            model.map(|m| (m, DATASHEET_EFFICIENCY)),
-            &Silent,
-        )
-        .map_err(ctx(""))?;
-        let file = SweepFile {
-            scenario: &scenario.name,
-            twin: choice.name(),
-            twin_note: choice.statement(),
-            cells: &result.cells,
-            optima: &result.optima,
-            pareto: &result.pareto,
-        };
-        let json = serde_json::to_string_pretty(&file)
-            .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
-        if let Some(dir) = &out {
-            let names: Vec<(String, &Dataset)> = result
-                .cells
-                .iter()
-                .zip(&result.datasets)
-                .map(|(c, d)| (format!("sweep_{}mps_{}kg", c.speed_m_s, c.load_kg), d))
-                .collect();
-            write_datasets(&names, dir, format)?;
-            powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes())
-                .map_err(ctx(""))?;
-            write_chart(&energy_chart(&result), dir, "energy_vs_speed", 960, 600)
-                .map_err(ctx(""))?;
-        }
-        Ok((json, flagged(&result.cells, allow_overload)))
+        with_rig(robot, &setup, choice, model, |rig| {
+            let flags = (choice, format, allow_overload);
+            twin_json(rig, &scenario, planned, model, out.as_deref(), flags)
+        })
     })
+}
+
+/// `twin="none"`: sweep.json of the model's predictions alone (written under `out`).
+fn predicted_json(
+    r: &powertwin::Robot,
+    scenario: &Scenario,
+    planned: Vec<lib_sweep::Planned>,
+    m: &PowerModel,
+    out: Option<&std::path::Path>,
+) -> PyResult<String> {
+    let result =
+        lib_sweep::predict(r, scenario, planned, (m, DATASHEET_EFFICIENCY)).map_err(ctx(""))?;
+    let file = PredictedFile {
+        scenario: &scenario.name,
+        twin: TwinChoice::None.name(),
+        twin_note: NO_PHYSICS_CHECK,
+        power_signal: m.signal,
+        cells: &result.cells,
+        optima: &result.optima,
+        pareto: &result.pareto,
+    };
+    let json = serde_json::to_string_pretty(&file)
+        .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| crate::os_error("creating", dir, &e))?;
+        powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes()).map_err(ctx(""))?;
+    }
+    Ok(json)
+}
+
+/// The cells run on `rig`: sweep.json and the flagged cells' message; the datasets,
+/// sweep.json and the chart written under `out`.
+fn twin_json(
+    rig: &powertwin::validation::rig::Rig,
+    scenario: &Scenario,
+    planned: Vec<lib_sweep::Planned>,
+    model: Option<&PowerModel>,
+    out: Option<&std::path::Path>,
+    (choice, format, allow_overload): (TwinChoice, Format, bool),
+) -> PyResult<(String, Option<String>)> {
+    let result = lib_sweep::run(
+        rig,
+        scenario,
+        planned,
+        model.map(|m| (m, DATASHEET_EFFICIENCY)),
+        &Silent,
+    )
+    .map_err(ctx(""))?;
+    let file = SweepFile {
+        scenario: &scenario.name,
+        twin: choice.name(),
+        twin_note: choice.statement(),
+        cells: &result.cells,
+        optima: &result.optima,
+        pareto: &result.pareto,
+    };
+    let json = serde_json::to_string_pretty(&file)
+        .map_err(|e| value_error(format!("serialising sweep.json: {e}")))?;
+    if let Some(dir) = out {
+        let names: Vec<(String, &Dataset)> = result
+            .cells
+            .iter()
+            .zip(&result.datasets)
+            .map(|(c, d)| (format!("sweep_{}mps_{}kg", c.speed_m_s, c.load_kg), d))
+            .collect();
+        write_datasets(&names, dir, format)?;
+        powertwin::io::write_atomic(&dir.join("sweep.json"), json.as_bytes()).map_err(ctx(""))?;
+        write_chart(&energy_chart(&result), dir, "energy_vs_speed", 960, 600).map_err(ctx(""))?;
+    }
+    Ok((json, flagged(&result.cells, allow_overload)))
 }
 
 /// The CLI's message listing the flagged cells, or `None`.
