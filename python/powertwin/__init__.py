@@ -39,6 +39,7 @@ __all__ = [
     "log_from_arrays",
     "identify",
     "sweep",
+    "excite_set",
     "dataset_item",
     "twin_options",
     "MAX_FIT_RATE_HZ",
@@ -407,6 +408,48 @@ def identify(
         None if prior_widths is None else dict(prior_widths),
     )
     return Model(inner, robot)
+
+
+def excite_set(
+    robot: Robot,
+    n: int,
+    *,
+    loads: Optional[Sequence[Union[None, str, Sequence[str]]]] = None,
+    cell: Optional[PathLike] = None,
+    duration_s: float = 30.0,
+    base_freq_hz: float = 0.1,
+    harmonics: int = 5,
+    accel_limits: Optional[Sequence[float]] = None,
+    rounds: int = 2,
+    evals: int = 2000,
+    seed: int = 1,
+    out: Optional[PathLike] = None,
+    rate_hz: float = 100.0,
+) -> dict:
+    """Design `n` excitations together for identification, as `powertwin excite --set N`:
+    `loads` one payload per excitation (None, a built-in name or payload file, or a list of
+    them combined) or one for all; `cell` a cell TOML; `duration_s` s; `base_freq_hz` Hz;
+    `accel_limits` rad/s^2 per joint; `rounds`, `evals` (the CLI's `--evals`, default 2000)
+    and `seed` of the design. With `out`, the set's CSV files and runs manifest are written
+    there at `rate_hz` Hz, as the CLI writes them. Returns `trajectories` (dicts t_s, q_rad,
+    dq_rad_s, ddq_rad_s2 sampled at `rate_hz`, usable by `simulate`), `cond_initial`,
+    `cond_final` and `member_conds` (condition numbers)."""
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"n: at least 1 excitation, got {n}")
+    specs = ["none" if p is None else "+".join(_payload_list(p)) for p in (loads or [])]
+    if len(specs) == 0:
+        specs = ["none"] * n
+    elif len(specs) == 1:
+        specs = specs * n
+    elif len(specs) != n:
+        raise ValueError(f"loads: {len(specs)} entries for {n} excitations: give one per excitation or one for all")
+    limits = None if accel_limits is None else _array1("accel_limits", accel_limits, robot.dof).tolist()
+    return _pt.excite_set(
+        robot, specs, None if cell is None else os.fspath(cell), float(duration_s), float(base_freq_hz),
+        int(harmonics), limits, int(rounds), int(evals), int(seed),
+        None if out is None else os.fspath(out), float(rate_hz),
+    )
 
 
 def _floats(name: str, xs: Optional[Sequence[float]]) -> list:

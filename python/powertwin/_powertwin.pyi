@@ -149,3 +149,17 @@ def sweep_assemble(
     cells: Sequence[str],
     allow_overload: bool,
 ) -> tuple[str, Optional[str]]: ...
+def excite_set(
+    robot: Robot,
+    loads: Sequence[str],
+    cell: Optional[str],
+    duration_s: float,
+    base_freq_hz: float,
+    harmonics: int,
+    accel_limits: Optional[Sequence[float]],
+    rounds: int,
+    evals: int,
+    seed: int,
+    out: Optional[str],
+    rate_hz: float,
+) -> dict[str, Any]: ...

@@ -8,6 +8,7 @@
 //! messages.
 
 mod cells;
+mod excite;
 mod model;
 mod robot;
 mod runs;
@@ -66,6 +67,7 @@ fn _powertwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::read_log, m)?)?;
     m.add_function(wrap_pyfunction!(runs::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(model::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(excite::excite_set, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_cell, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_assemble, m)?)?;

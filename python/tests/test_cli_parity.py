@@ -93,3 +93,15 @@ def test_identified_model_pickles_to_the_same_predictions(robot, work):
     assert again.predict_trajectory(plan).energy_J == model.predict_trajectory(plan).energy_J
     r = pickle.loads(pickle.dumps(robot))
     assert (r.name, r.dof, r.joint_names) == (robot.name, robot.dof, robot.joint_names)
+
+
+def test_excite_set_writes_the_cli_set(robot, tmp_path):
+    args = ["--set", 2, "--loads", "none,liu2018_load_2kg", "--duration", 10, "--rounds", 1, "--evals", 60]
+    run_cli("excite", *args, "--out", tmp_path / "cli")
+    design = pt.excite_set(robot, 2, loads=[None, "liu2018_load_2kg"], duration_s=10, rounds=1, evals=60,
+                           out=tmp_path / "py")
+    cli = {p.name: p.read_bytes() for p in sorted((tmp_path / "cli").iterdir())}
+    assert {p.name: p.read_bytes() for p in sorted((tmp_path / "py").iterdir())} == cli
+    first = np.loadtxt(tmp_path / "py" / sorted(n for n in cli if n.endswith(".csv"))[0], delimiter=",", skiprows=1)
+    assert np.array_equal(design["trajectories"][0]["q_rad"], first[:, 1:1 + robot.dof])
+    assert len(design["member_conds"]) == 2 and design["cond_final"] <= design["cond_initial"]
