@@ -163,3 +163,15 @@ def excite_set(
     out: Optional[str],
     rate_hz: float,
 ) -> dict[str, Any]: ...
+def validate_motion(
+    robot: Robot,
+    model: Model,
+    k: int,
+    count: int,
+    seed: int,
+    max_payload: Optional[float],
+    opts: dict[str, Any],
+    out: Optional[str],
+    format: str,
+) -> str: ...
+def validate_assemble(seed: int, motions: Sequence[str]) -> str: ...

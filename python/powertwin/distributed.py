@@ -6,6 +6,8 @@
   so an interrupted run resumes.
 - `sweep(client, robot, ...)`: the cells of `powertwin sweep`, one task per cell, joined into
   the sweep.json `sweep --json` prints.
+- `validate(client, robot, model)`: the held-out motions of `powertwin validate`, one task
+  per motion, joined into what `validate --json` prints.
 - `identify_fleet(client, fleet)`: one identification per robot of a fleet.
 
 Every function returns a table (a dict of numpy arrays / lists, one row per item) with a
@@ -28,7 +30,7 @@ import numpy as np
 import powertwin as pt
 from powertwin import _powertwin as _pt
 
-__all__ = ["dataset", "sweep", "identify_fleet", "TaskFailures"]
+__all__ = ["dataset", "sweep", "validate", "identify_fleet", "TaskFailures"]
 
 
 class TaskFailures(RuntimeError):
@@ -177,6 +179,52 @@ def sweep(
                   "load_kg": np.array([loads[k // len(speeds)] for k in range(n)], dtype=np.float64)})
     doc["table"] = table
     _finish(table, "sweep cells", raise_on_failure)
+    return doc
+
+
+def _validate_task(robot, model, k, count, seed, max_payload, opts, out, fmt):
+    return _pt.validate_motion(robot, model._m, k, count, seed, max_payload, opts, out, fmt)
+
+
+def validate(
+    client,
+    robot: pt.Robot,
+    model: "pt.Model",
+    *,
+    count: int = 30,
+    seed: int = 90_210,
+    max_payload: Optional[float] = None,
+    out: Optional[Union[str, os.PathLike]] = None,
+    format: str = "parquet",
+    raise_on_failure: bool = False,
+    **twin: Any,
+) -> dict:
+    """The held-out motions of `powertwin validate --count COUNT --seed SEED` (`max_payload`
+    kg; default the drive's rated payload) on the cluster, one task per motion (its twin run
+    and scores as the CLI's), joined into what `validate --json` prints when every motion
+    ran; `table` lists each motion's status and error. With `out`, heldout.json and each
+    motion's dataset (out/datasets/heldout_NN_KIND) are written as the CLI writes them."""
+    import json
+
+    opts = pt.twin_options(**twin)
+    outs = None if out is None else os.fspath(out)
+    robot_f = client.scatter(robot, broadcast=True, hash=False)
+    model_f = client.scatter(model, broadcast=True, hash=False)
+    futures = [
+        client.submit(_validate_task, robot_f, model_f, k, int(count), int(seed), max_payload, opts, outs,
+                      format, pure=False)
+        for k in range(int(count))
+    ]
+    rows = _gather(client, futures, list(range(int(count))))
+    status = ["ok" if e is None else "failed" for _, _, e in rows]
+    doc = {}
+    if all(s == "ok" for s in status):
+        text = _pt.validate_assemble(int(seed), [r for _, r, _ in rows])
+        doc = json.loads(text)
+        if out is not None:
+            pt._write_text_atomic(pathlib.Path(out) / "heldout.json", text)
+    doc["table"] = {"item": np.arange(int(count)), "status": status, "error": [e for _, _, e in rows]}
+    _finish(doc["table"], "held-out motions", raise_on_failure)
     return doc
 
 

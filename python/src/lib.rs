@@ -13,6 +13,7 @@ mod model;
 mod robot;
 mod runs;
 mod sweep;
+mod validate;
 
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
@@ -71,6 +72,8 @@ fn _powertwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_cell, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_assemble, m)?)?;
+    m.add_function(wrap_pyfunction!(validate::validate_motion, m)?)?;
+    m.add_function(wrap_pyfunction!(validate::validate_assemble, m)?)?;
     m.add(
         "MAX_FIT_RATE_HZ",
         powertwin::identification::tuning::MAX_FIT_RATE_HZ,

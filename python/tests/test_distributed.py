@@ -74,3 +74,14 @@ def test_fleet_identification(client, robot, work):
     assert "no_such_dataset" in table["error"][2]
     local = pt.identify(robot, [pt.read_dataset(d / "cli_run0")])
     assert table["model"][0].to_json() == local.to_json()
+
+
+def test_validate_motions_equal_validate_json(client, robot, work, tmp_path):
+    model_path = work["dir"] / "cli_model.json"
+    cli = run_cli("validate", "--model", model_path, "--count", 4, "--out", tmp_path / "cli", "--json")
+    model = pt.Model.load(model_path, robot)
+    doc = ptd.validate(client, robot, model, count=4, out=tmp_path / "dask")
+    table = doc.pop("table")
+    assert table["status"] == ["ok"] * 4
+    assert doc == json.loads(cli.stdout)
+    assert tree(tmp_path / "dask") == tree(tmp_path / "cli")
