@@ -109,6 +109,50 @@ fn bench(c: &mut Criterion) {
         })
     });
     group.finish();
+    plan_file(c);
+}
+
+/// The Rust side of `benches/python_bench.py`: the plan `POWERTWIN_BENCH_PLAN` (CSV) priced
+/// by the model file `POWERTWIN_BENCH_MODEL` as `Model.predict_trajectory` prices arrays
+/// (interpolation, joint-limit check, energy and power at the samples). Skipped without them.
+fn plan_file(c: &mut Criterion) {
+    use powertwin::identification::model::DATASHEET_EFFICIENCY;
+    use powertwin::identification::plan::{LIMIT_CHECK_DT_S, price};
+    use powertwin::trajectory::sampled::Sampled;
+    let (Ok(plan), Ok(model)) = (
+        std::env::var("POWERTWIN_BENCH_PLAN"),
+        std::env::var("POWERTWIN_BENCH_MODEL"),
+    ) else {
+        return;
+    };
+    let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).expect("built-in model");
+    let text = std::fs::read_to_string(&model).expect("model file");
+    let doc: serde_json::Value = serde_json::from_str(&text).expect("model JSON");
+    let model: PowerModel = serde_json::from_value(doc["model"].clone()).expect("a model");
+    let table = powertwin::io::table::Table::read(std::path::Path::new(&plan)).expect("plan");
+    let t = table.column(&["t_s"]).expect("t_s").to_vec();
+    let q: Vec<Vec<f64>> = table
+        .joint_columns("q", "rad", robot.dof())
+        .expect("q columns")
+        .iter()
+        .map(|c| c.to_vec())
+        .collect();
+    c.bench_function("predict_trajectory_plan_file", |b| {
+        b.iter(|| {
+            let traj = Sampled::new(t.clone(), q.clone(), None, None).expect("samples");
+            powertwin::trajectory::limits::check_limits(&robot, &traj, LIMIT_CHECK_DT_S, None)
+                .expect("within limits");
+            price(
+                &model,
+                &robot,
+                &traj,
+                &[],
+                DATASHEET_EFFICIENCY,
+                traj.sample_times(),
+            )
+            .expect("prices")
+        })
+    });
 }
 
 criterion_group!(benches, bench);

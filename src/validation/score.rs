@@ -7,7 +7,7 @@
 //!   [`MotionResult`]), and their spread over motions ([`Spread`], [`RouteSummary`]).
 //! * [`table`]: identified against true base parameters (Table 2, [`ParamRow`]).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::dataset::Dataset;
 use crate::dynamics::DriveTerms;
@@ -31,7 +31,7 @@ pub fn energy_error_pct(predicted_j: f64, truth_j: f64) -> f64 {
 }
 
 /// Scores of one prediction.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Scores {
     /// Predicted energy of the measured signal, J.
     #[serde(rename = "predicted_J")]
@@ -72,7 +72,7 @@ impl Scores {
 }
 
 /// One held-out motion's result.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MotionResult {
     /// 1-based index.
     pub index: usize,

@@ -279,7 +279,6 @@ pub fn run(
 ) -> Result<Sweep> {
     let robot = rig.robot;
     progress.stage("Figure 14: speed x load sweep", plans.len());
-    let dt = rig.twin.physics.dt;
     let (lo, hi) = speed_range(&plans);
     let loads = distinct(&plans, |p| p.load);
     let mut order: Vec<(usize, Planned)> = plans.into_iter().enumerate().collect();
@@ -289,53 +288,10 @@ pub fn run(
             .duration_s
             .total_cmp(&a.1.plan.motion.duration_s)
     });
-    let run_cell = |(k, Planned { speed, load, plan }): (usize, Planned)| {
-        let description = serde_json::json!({
-            "kind": "pick and place",
-            "scenario": scenario.name,
-            "speed_m_s": speed,
-            "load_kg": load,
-        });
-        let (ds, report) = rig.run_reported(
-            &plan.motion.trajectory,
-            &plan.events,
-            &[],
-            200 + k as u64,
-            description,
-        )?;
-        let pred = predictor
-            .map(|(model, efficiency)| {
-                model.energy_with_payloads(
-                    robot,
-                    &plan.motion.trajectory,
-                    &plan.events,
-                    efficiency,
-                    dt,
-                )
-            })
-            .transpose()?;
-        let sim = &ds.meta.summary;
+    let run_cell = |(k, planned): (usize, Planned)| {
+        let (cell, ds, plan) = run_cell(rig, scenario, k, planned, predictor)?;
         progress.advance();
-        Ok((
-            k,
-            Cell {
-                speed_m_s: speed,
-                load_kg: load,
-                cycle_time_s: plan.motion.duration_s,
-                simulated_j: sim.energy_total_j,
-                simulated_grid_j: sim.energy_grid_j,
-                predicted_j: pred.map(|p| p.motor_j),
-                predicted_grid_j: pred.map(|p| p.grid_j),
-                error_pct: pred
-                    .map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
-                slowed: plan.motion.slowed.clone(),
-                flagged: run_flagged(&report),
-                max_tracking_error_rad: report.max_tracking_error_rad,
-                torque_limit_hits: report.torque_limit_hits,
-            },
-            ds,
-            plan,
-        ))
+        Ok((k, cell, ds, plan))
     };
     // The model's least-energy speed of every load, searched while the twin runs.
     let least = || match predictor {
@@ -378,6 +334,88 @@ pub fn run(
         datasets,
         plans,
     })
+}
+
+/// Run cell `k` (its index in [`plan`]'s load-major order) of a planned grid on `rig`: the
+/// twin run (noise seed `200 + k`) and the prediction [`run`] makes for that cell, for
+/// running the cells of one sweep in separate processes; [`assemble`] joins them as [`run`]
+/// does. Returns the cell, its dataset and its plan.
+pub fn run_cell(
+    rig: &Rig,
+    scenario: &Scenario,
+    k: usize,
+    Planned { speed, load, plan }: Planned,
+    predictor: Option<Predictor>,
+) -> Result<(Cell, Dataset, TaskRun)> {
+    let robot = rig.robot;
+    let dt = rig.twin.physics.dt;
+    let description = serde_json::json!({
+        "kind": "pick and place",
+        "scenario": scenario.name,
+        "speed_m_s": speed,
+        "load_kg": load,
+    });
+    let (ds, report) = rig.run_reported(
+        &plan.motion.trajectory,
+        &plan.events,
+        &[],
+        200 + k as u64,
+        description,
+    )?;
+    let pred = predictor
+        .map(|(model, efficiency)| {
+            model.energy_with_payloads(robot, &plan.motion.trajectory, &plan.events, efficiency, dt)
+        })
+        .transpose()?;
+    let sim = &ds.meta.summary;
+    Ok((
+        Cell {
+            speed_m_s: speed,
+            load_kg: load,
+            cycle_time_s: plan.motion.duration_s,
+            simulated_j: sim.energy_total_j,
+            simulated_grid_j: sim.energy_grid_j,
+            predicted_j: pred.map(|p| p.motor_j),
+            predicted_grid_j: pred.map(|p| p.grid_j),
+            error_pct: pred.map(|p| 100.0 * (p.motor_j - sim.energy_total_j) / sim.energy_total_j),
+            slowed: plan.motion.slowed.clone(),
+            flagged: run_flagged(&report),
+            max_tracking_error_rad: report.max_tracking_error_rad,
+            torque_limit_hits: report.torque_limit_hits,
+        },
+        ds,
+        plan,
+    ))
+}
+
+/// The optima per load and the Pareto front of a sweep's `cells` (in [`plan`]'s load-major
+/// order) that ran separately ([`run_cell`]), as [`run`] computes them: with `predictor`,
+/// the model's least-energy speed of every load is searched over the cells' speed range.
+pub fn assemble(
+    robot: &Robot,
+    scenario: &Scenario,
+    cells: &[Cell],
+    predictor: Option<Predictor>,
+) -> Result<(Vec<Optimum>, Vec<usize>)> {
+    let speeds = cells.iter().map(|c| c.speed_m_s);
+    let range = (
+        speeds.clone().fold(f64::INFINITY, f64::min),
+        speeds.fold(f64::NEG_INFINITY, f64::max),
+    );
+    let loads = distinct(cells, |c| c.load_kg);
+    let predicted: Vec<Option<SpeedOptimum>> = match predictor {
+        Some(p) => least_energy(robot, scenario, &loads, p, range)?
+            .into_iter()
+            .map(Some)
+            .collect(),
+        None => vec![None; loads.len()],
+    };
+    let optima = loads
+        .iter()
+        .zip(predicted)
+        .map(|(&load, predicted)| optimum(cells, load, predicted))
+        .collect::<Result<_>>()?;
+    Ok((optima, pareto_front(cells)))
 }
 
 /// The least and the greatest speed of the planned cells, m/s.
