@@ -267,6 +267,7 @@ impl TwinOptions {
             power_signal: signal,
             noise,
             seed: self.seed,
+            ..SensorSettings::default()
         };
         Ok(Setup {
             drive,

@@ -278,6 +278,7 @@ pub fn simulate<'py>(
         .map_or(file.clone(), |o| o.display().to_string());
     let ds = py.detach(|| -> PyResult<Dataset> {
         let (ds, _) = twin_simulate(&RunSpec {
+            family: None,
             robot: &robot.robot,
             urdf: robot.urdf.clone(),
             drive: &setup.drive,

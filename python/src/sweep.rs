@@ -246,6 +246,7 @@ fn with_rig<T>(
         TwinChoice::None => return Err(value_error("twin='none' runs no cell on a twin")),
     };
     let input = powertwin::validation::rig::Rig {
+        plant: None,
         robot: &robot.robot,
         urdf: robot.urdf.clone(),
         drive: &setup.drive,

@@ -81,6 +81,7 @@ pub fn validate_motion(
     let r = &robot.robot;
     py.detach(|| {
         let rig = Rig {
+            plant: None,
             robot: r,
             urdf: robot.urdf.clone(),
             drive: &setup.drive,
