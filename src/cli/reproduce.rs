@@ -311,6 +311,27 @@ fn summary(r: &Results, out: &Path) -> String {
         h.plan_power_rmse_w.worst,
         h.baseline_power_rmse_w.worst
     );
+    let f = &r.family;
+    outln!(
+        o,
+        "Across {} robots we did not build (family seed {}, each identified from its own logs), pooled:",
+        f.robots.len(),
+        f.seed
+    );
+    for (name, s) in [
+        ("from the log ", &f.from_log),
+        ("from the plan", &f.from_plan),
+    ] {
+        outln!(
+            o,
+            "  {name}: energy error median {:.3} %, p95 {:.3} %, worst {:.3} %; 95 % interval coverage {:.0} % (lowest robot {:.0} %)",
+            s.energy_error_pct.median,
+            s.energy_error_pct.p95,
+            s.energy_error_pct.worst,
+            s.coverage_pct,
+            f.worst_robot_coverage_pct
+        );
+    }
     outln!(o, "In-sample (each predicted on its own fitting data):");
     outln!(
         o,

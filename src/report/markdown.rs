@@ -239,6 +239,9 @@ pub fn render(r: &Results, plots: &[(String, String)]) -> String {
     let w = &mut s;
     intro(w, r);
     heldout(w, r);
+    if let Ok(value) = serde_json::to_value(r) {
+        super::summary::family(w, &value);
+    }
     model_parameters(w, r);
     table3(w, r);
     estimators(w, r);

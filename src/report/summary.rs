@@ -132,29 +132,17 @@ fn heldout(w: &mut String, r: &Value) {
             .collect::<Vec<_>>()
             .join(", "),
     );
-    let _ = writeln!(
+    route_table(
         w,
-        "| prediction | energy error, median | p95 | worst | above standby, worst | \
-         95 % interval coverage | median error / sigma (calibrated 0.67) |"
+        r,
+        "prediction",
+        "/heldout",
+        &[
+            ("from the log", "from_log"),
+            ("from the plan", "from_plan"),
+            ("baseline (URDF + data sheet), from the log", "baseline"),
+        ],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
-    for (name, key) in [
-        ("from the log", "from_log"),
-        ("from the plan", "from_plan"),
-        ("baseline (URDF + data sheet), from the log", "baseline"),
-    ] {
-        let s = |f: &str| num(r, &format!("/heldout/{key}/{f}"));
-        let _ = writeln!(
-            w,
-            "| {name} | {} | {} | {} | {} | {} | {} |",
-            pct(s("energy_error_pct/median")),
-            pct(s("energy_error_pct/p95")),
-            pct(s("energy_error_pct/worst")),
-            pct(s("above_standby_error_pct/worst")),
-            s("coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),
-            fixed(s("median_z"), 2),
-        );
-    }
     let _ = writeln!(
         w,
         "\nPower RMSE at the logged samples, worst motion: {} W from the log, {} W from the \
@@ -171,8 +159,32 @@ fn heldout(w: &mut String, r: &Value) {
     );
 }
 
-/// The held-out benchmark across the family: pooled, then per robot.
-fn family(w: &mut String, r: &Value) {
+/// A table of route summaries (`RouteSummary` under `{at}/{key}`), one row per `(name, key)`;
+/// `first` heads the first column.
+fn route_table(w: &mut String, r: &Value, first: &str, at: &str, rows: &[(&str, &str)]) {
+    let _ = writeln!(
+        w,
+        "| {first} | energy error, median | p95 | worst | above standby, worst | \
+         95 % interval coverage | median error / sigma (calibrated 0.67) |"
+    );
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
+    for (name, key) in rows {
+        let s = |f: &str| num(r, &format!("{at}/{key}/{f}"));
+        let _ = writeln!(
+            w,
+            "| {name} | {} | {} | {} | {} | {} | {} |",
+            pct(s("energy_error_pct/median")),
+            pct(s("energy_error_pct/p95")),
+            pct(s("energy_error_pct/worst")),
+            pct(s("above_standby_error_pct/worst")),
+            s("coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),
+            fixed(s("median_z"), 2),
+        );
+    }
+}
+
+/// The held-out benchmark across the family: pooled, then per robot (also in `report.md`).
+pub(crate) fn family(w: &mut String, r: &Value) {
     let robots = list(r, "/family/robots");
     if robots.is_empty() {
         return;
@@ -191,25 +203,13 @@ fn family(w: &mut String, r: &Value) {
         fixed(num(r, "/family/seed"), 0),
         fixed(num(r, "/family/heldout_seeds"), 0),
     );
-    let _ = writeln!(
+    route_table(
         w,
-        "| pooled | energy error, median | p95 | worst | above standby, worst | \
-         95 % interval coverage | median error / sigma (calibrated 0.67) |"
+        r,
+        "pooled",
+        "/family",
+        &[("from the log", "from_log"), ("from the plan", "from_plan")],
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|");
-    for (name, key) in [("from the log", "from_log"), ("from the plan", "from_plan")] {
-        let s = |f: &str| num(r, &format!("/family/{key}/{f}"));
-        let _ = writeln!(
-            w,
-            "| {name} | {} | {} | {} | {} | {} | {} |",
-            pct(s("energy_error_pct/median")),
-            pct(s("energy_error_pct/p95")),
-            pct(s("energy_error_pct/worst")),
-            pct(s("above_standby_error_pct/worst")),
-            s("coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),
-            fixed(s("median_z"), 2),
-        );
-    }
     let _ = writeln!(
         w,
         "\nPower RMSE at the logged samples, worst motion: {} W. Lowest coverage of one \

@@ -33,8 +33,9 @@ const FINE: usize = 5;
 /// The 99 % point of chi-square with one degree of freedom: the evidence a lag needs.
 const LAG_EVIDENCE: f64 = 6.63;
 
-/// The lag (s) of the logged power behind the joints in `logs` that the linear power model
-/// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off.
+/// The lag (s) of the logged power behind the joints in `logs` that the PMSM power model
+/// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off, when the
+/// logs do not fit at all, or when the data cannot tell the lag from none.
 pub(super) fn find_lag(
     robot: &Robot,
     template: &PowerModel,
@@ -64,6 +65,10 @@ pub(super) fn find_lag(
             opts.folds,
             false,
         )?;
+        let samples = match &opts.prior {
+            Some(prior) => samples.with_prior(prior.clone())?,
+            None => samples,
+        };
         let f = fit(
             template,
             &samples,
@@ -74,7 +79,11 @@ pub(super) fn find_lag(
         rows.set(f.estimate.rows);
         Ok(f.estimate.residual_rms)
     };
-    let at_zero = cost(0.0)?;
+    // Logs too short or too poor for a fit of their own (with the prior, if any) leave the
+    // lag at zero; the identification proper then says what they lack.
+    let Ok(at_zero) = cost(0.0) else {
+        return Ok(0.0);
+    };
     let lag = search(max, &cost)?;
     // Keep the lag only where the data tell it from none: the likelihood ratio of the fits
     // at that lag and at zero, `N ln(RSS_0 / RSS_L)`, above the 99 % point of chi-square
