@@ -100,7 +100,7 @@ def twin_options(
     nominal_error: Optional[float] = None,
     power_signal: Optional[str] = None,
     dt: float = 0.001,
-    substeps: int = 6,
+    substeps: Optional[int] = None,
     motor: str = "pmsm",
     sample_rate: float = 10.0,
     noise: Optional[str] = None,
@@ -108,14 +108,15 @@ def twin_options(
 ) -> dict:
     """The twin settings of a run, with the CLI's defaults (`--truth`, `--noise-seed`,
     `--nominal-error`, `--power-signal`, `--dt` (s), `--substeps`, `--motor`,
-    `--sample-rate` (Hz), `--noise` (a TOML path or "none"), `--power-averaging`)."""
+    `--sample-rate` (Hz), `--noise` (a TOML path or "none"), `--power-averaging`); `substeps`
+    None: the library's default, as the CLI's."""
     return {
         "truth": truth,
         "seed": int(seed),
         "nominal_error": nominal_error,
         "power_signal": power_signal,
         "dt": float(dt),
-        "substeps": int(substeps),
+        "substeps": int(_pt.DEFAULT_SUBSTEPS if substeps is None else substeps),
         "motor": motor,
         "sample_rate": float(sample_rate),
         "noise": None if noise is None else os.fspath(noise),

@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 MAX_FIT_RATE_HZ: float
+DEFAULT_SUBSTEPS: int
 
 class Robot:
     """A robot: URDF, locked joints and drive file. Picklable."""

@@ -60,6 +60,11 @@ where
 
 #[pymodule]
 fn _powertwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The twin's default Rapier substeps, as the CLI's `--substeps` default.
+    m.add(
+        "DEFAULT_SUBSTEPS",
+        powertwin::twin::physics::PhysicsSettings::default().substeps,
+    )?;
     m.add_class::<robot::PyRobot>()?;
     m.add_class::<runs::PyLog>()?;
     m.add_class::<model::PyModel>()?;
