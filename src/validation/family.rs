@@ -7,6 +7,7 @@
 //! family's truth only scores. A drawn robot whose torque saturates in any run cannot be
 //! tracked: it is redrawn, and the redraw is recorded.
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::dataset::Dataset;
@@ -15,7 +16,7 @@ use crate::model::Robot;
 use crate::twin::family::{FamilyTable, Plant};
 use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSetOptions};
-use crate::validation::rig::{Progress, Rig};
+use crate::validation::rig::{Progress, Rig, Together};
 use crate::validation::score::{MotionResult, RouteSummary, Spread};
 
 /// Redraws of one robot before the family is given up as untrackable.
@@ -148,11 +149,17 @@ pub fn run(rig: &Rig, opts: &FamilyOptions, progress: &dyn Progress) -> Result<F
     opts.table
         .validate()
         .map_err(|m| Error::InvalidInput(format!("family table: {m}")))?;
+    // The robots side by side (each one's runs and fits are parallel too): a robot whose
+    // fit is long does not leave a core idle at the end.
+    progress.stage(&format!("family of {} robots", opts.robots), 0);
+    let together = Together(progress);
+    let drawn = (0..opts.robots)
+        .into_par_iter()
+        .map(|r| one_robot(rig, opts, r, &together))
+        .collect::<Result<Vec<_>>>()?;
     let mut robots = Vec::with_capacity(opts.robots);
     let mut all = Vec::new();
-    for r in 0..opts.robots {
-        progress.stage(&format!("family robot {} of {}", r + 1, opts.robots), 0);
-        let (robot, motions) = one_robot(rig, opts, r, progress)?;
+    for (robot, motions) in drawn {
         robots.push(robot);
         all.extend(motions);
     }

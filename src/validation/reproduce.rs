@@ -130,20 +130,79 @@ impl Outcome {
 }
 
 /// Run `plan` on `rig`. Work that does not depend on each other runs side by side on the
-/// thread pool: the six steps and the estimators beside the identification set and the
-/// held-out benchmark, then Table 4 beside the sweep. Each stage's wall time is its own
-/// (side-by-side stages overlap).
+/// thread pool: the family beside everything else; the six steps and the estimators beside
+/// the identification set and the held-out benchmark, then Table 4 beside the sweep. Each
+/// stage's wall time is its own (side-by-side stages overlap).
 pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     let mut timings = Vec::new();
     let mut clock = Instant::now();
     let planned = sweep::plan(rig.robot, &plan.scenario)?;
     timings.push(lap(&mut clock, "task planned for every sweep cell"));
-    progress.stage("Tables 3 and 2, identification set, held-out benchmark", 0);
+    progress.stage(
+        "Tables 3, 2 and 4, identification set, held-out benchmark, Figure 14 and the family",
+        0,
+    );
     let together = Together(progress);
+    // The family needs nothing of the rest: beside it from the start.
+    let (single, family) = rayon::join(
+        || single_truth(rig, plan, planned, &together),
+        || -> Result<_> {
+            let mut clock = Instant::now();
+            let family = family::run(rig, &plan.family, &together)?;
+            Ok((
+                family,
+                lap(
+                    &mut clock,
+                    "family of truths: robots drawn, identified and judged (side by side)",
+                ),
+            ))
+        },
+    );
+    let single = single?;
+    let (family, family_time) = family?;
+    timings.extend(single.timings);
+    timings.push(family_time);
+    Ok(Outcome {
+        steps: single.steps,
+        estimators: single.estimators,
+        idset: single.idset,
+        model: single.model,
+        parameters: single.parameters,
+        heldout: single.heldout,
+        heldout_datasets: single.heldout_datasets,
+        cases: single.cases,
+        sweep: single.sweep,
+        family,
+        timings,
+    })
+}
+
+/// What the stages on the rig's own truth found ([`Outcome`] without the family).
+struct Single {
+    steps: Steps,
+    estimators: Vec<EstimatorResult>,
+    idset: IdSet,
+    model: PowerModel,
+    parameters: Vec<ParamRow>,
+    heldout: Heldout,
+    heldout_datasets: Vec<Dataset>,
+    cases: Cases,
+    sweep: Sweep,
+    timings: Vec<StageTime>,
+}
+
+/// Every stage on the rig's own truth: the six steps and the estimators beside the
+/// identification set and the held-out benchmark, then Table 4 beside the sweep.
+fn single_truth(
+    rig: &Rig,
+    plan: &Plan,
+    planned: Vec<sweep::Planned>,
+    together: &Together,
+) -> Result<Single> {
     let (paper, identified) = rayon::join(
         || -> Result<_> {
             let mut clock = Instant::now();
-            let steps = steps::run(rig, &plan.steps, &together)?;
+            let steps = steps::run(rig, &plan.steps, together)?;
             let t1 = lap(
                 &mut clock,
                 "excitation, twin runs and six-step identification (Table 3; side by side)",
@@ -159,8 +218,8 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
             let mut clock = Instant::now();
             // The held-out motions' twin runs need no model: beside the identification.
             let (idset, runs) = rayon::join(
-                || idset::run(rig, &plan.idset, &together),
-                || heldout::simulate(rig, &plan.heldout, &together),
+                || idset::run(rig, &plan.idset, together),
+                || heldout::simulate(rig, &plan.heldout, together),
             );
             let (idset, runs) = (idset?, runs?);
             let model = idset.selection.fit.model.clone();
@@ -175,7 +234,7 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
                 "identification set (joint design, twin runs, cross-validated fit) and the held-out motions' twin runs (side by side)",
             );
             let (heldout, heldout_datasets) =
-                heldout::evaluate(rig, &model, &plan.heldout, runs, &together)?;
+                heldout::evaluate(rig, &model, &plan.heldout, runs, together)?;
             let t2 = lap(
                 &mut clock,
                 "held-out benchmark's predictions (side by side)",
@@ -192,31 +251,14 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
     );
     let (steps, estimators, paper_times) = paper?;
     let (idset, model, parameters, heldout, heldout_datasets, identified_times) = identified?;
+    let mut timings = Vec::new();
     timings.extend(paper_times);
     timings.extend(identified_times);
-    progress.stage(
-        "Table 4, Figure 14 and the family: tool and load cases, speed x load sweep, robots we did not build",
-        0,
-    );
-    let ((cases, sweep), family) = rayon::join(
-        || tables_and_sweep(rig, plan, &steps, &model, planned, &together),
-        || -> Result<_> {
-            let mut clock = Instant::now();
-            let family = family::run(rig, &plan.family, &together)?;
-            Ok((
-                family,
-                lap(
-                    &mut clock,
-                    "family of truths: robots drawn, identified and judged (side by side)",
-                ),
-            ))
-        },
-    );
+    let (cases, sweep) = tables_and_sweep(rig, plan, &steps, &model, planned, together);
     let (cases, cases_time) = cases?;
     let (sweep, sweep_time) = sweep?;
-    let (family, family_time) = family?;
-    timings.extend([cases_time, sweep_time, family_time]);
-    Ok(Outcome {
+    timings.extend([cases_time, sweep_time]);
+    Ok(Single {
         steps,
         estimators,
         idset,
@@ -226,7 +268,6 @@ pub fn run(rig: &Rig, plan: &Plan, progress: &dyn Progress) -> Result<Outcome> {
         heldout_datasets,
         cases,
         sweep,
-        family,
         timings,
     })
 }

@@ -29,7 +29,7 @@
 //! - Coulomb friction, viscous friction and rotor inertia are squares `z^2 >= 0`.
 //!
 //! Levenberg–Marquardt (damping in the natural units of the parametrisation, steps of at most
-//! one unit per coordinate, each step an SVD least-squares solve of the augmented Jacobian) from the unconstrained minimiser, links that are not consistent
+//! one unit per coordinate, each step a least-squares solve of the damped Jacobian by QR) from the unconstrained minimiser, links that are not consistent
 //! there starting from the prior.
 
 use nalgebra::{DMatrix, DVector, Matrix4};
@@ -370,7 +370,8 @@ fn minimise(
         dphi: DMatrix::zeros(0, 0),
         r: DVector::zeros(0),
         cost: 0.0,
-        jac: DMatrix::zeros(0, 0),
+        jac_r: DMatrix::zeros(0, 0),
+        jac_qtr: DVector::zeros(0),
     };
     let (phi, dphi) = problem.eval(&z);
     problem.r = problem.residual(&phi);

@@ -37,8 +37,12 @@ pub(super) struct Projection<'a> {
     pub(super) r: DVector<f64>,
     /// `|r|^2`.
     pub(super) cost: f64,
-    /// Jacobian of the residual in `z` (this iteration's).
-    pub(super) jac: DMatrix<f64>,
+    /// This iteration's linearisation: the triangular factor `R` of the Jacobian of the
+    /// residual in `z` (`J = Q R`) and `-Q^T r`, so that each damped trial solves a `2q x q`
+    /// system rather than the whole `(n_theta + 2q) x q` one.
+    pub(super) jac_r: DMatrix<f64>,
+    /// `-Q^T r` of this iteration.
+    pub(super) jac_qtr: DVector<f64>,
 }
 
 /// A trial point of [`Projection`] with its evaluation.
@@ -87,19 +91,28 @@ impl lm::Problem for Projection<'_> {
     }
 
     fn linearise(&mut self) {
-        self.jac = self.j_phi * &self.dphi;
+        // J has at least as many rows (n_theta + q) as columns (q): its thin QR.
+        let qr = (self.j_phi * &self.dphi).qr();
+        self.jac_qtr = -(qr.q().transpose() * &self.r);
+        self.jac_r = qr.r();
     }
 
     fn trial(&mut self, mu: f64) -> Option<(ProjectionTrial, f64)> {
-        let (nt, q) = (self.rk.nrows(), self.unknowns());
-        let mut a = DMatrix::zeros(nt + 2 * q, q);
-        a.rows_mut(0, nt + q).copy_from(&self.jac);
+        // min |J s + r|^2 + mu |D s|^2 = min |[R; sqrt(mu) D] s - [-Q^T r; 0]|^2, solved by
+        // the QR of the stacked `2q x q` matrix (full column rank for mu > 0).
+        let q = self.unknowns();
+        let mut a = DMatrix::zeros(2 * q, q);
+        a.rows_mut(0, q).copy_from(&self.jac_r);
         for (c, u) in self.unit.iter().enumerate() {
-            a[(nt + q + c, c)] = mu.sqrt() * u;
+            a[(q + c, c)] = mu.sqrt() * u;
         }
-        let mut b = DVector::zeros(nt + 2 * q);
-        b.rows_mut(0, nt + q).copy_from(&(-&self.r));
-        let mut step = a.svd(true, true).solve(&b, 0.0).ok()?;
+        let mut b = DVector::zeros(2 * q);
+        b.rows_mut(0, q).copy_from(&self.jac_qtr);
+        let qr = a.qr();
+        let mut step = qr.r().solve_upper_triangular(&(qr.q().transpose() * b))?;
+        if step.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
         // At most one natural unit per coordinate and step: a factor e on the log-Cholesky
         // diagonal, L on its other entries.
         lm::cap_step(&mut step, self.unit, MAX_STEP);

@@ -32,26 +32,78 @@ pub fn fit(
     weighting: Weighting,
     use_sample: &dyn Fn(usize) -> bool,
 ) -> Result<Fit> {
+    fit_inner(template, s, estimator, weighting, use_sample, true)
+}
+
+/// [`fit`] with every copper coefficient free (none held at zero for want of significance)
+/// and without statistics (zero covariance): the least cost and its `residual_rms` alone, for
+/// a search that only compares residuals.
+pub(super) fn fit_free(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    weighting: Weighting,
+) -> Result<Fit> {
+    fit_inner(template, s, estimator, weighting, &|_| true, false)
+}
+
+/// [`fit`] when `full`, else [`fit_free`].
+fn fit_inner(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    weighting: Weighting,
+    use_sample: &dyn Fn(usize) -> bool,
+    full: bool,
+) -> Result<Fit> {
     let rows: Vec<usize> = (0..s.len())
         .filter(|&m| s.fit[m] && use_sample(m))
         .collect();
-    let run = |zero_copper: &[bool]| -> Result<Fit> {
+    // Each round's Levenberg–Marquardt starts from the round before (the weights move the
+    // least cost a little); the first from the linear solution. From the linear solution
+    // every round, a bus signal's fit (the clip makes its cost kinked) crawls tens of
+    // iterations back to where the last round ended.
+    let run = |zero_copper: &[bool], start: Option<&[f64]>| -> Result<Fit> {
         let mut weights = vec![1.0; rows.len()];
         let rounds = if weighting == Weighting::None {
             0
         } else {
             WLS_ITERATIONS
         };
+        let mut start = start.map(|z| z.to_vec());
         // Only the last round's statistics are kept: the earlier ones give only weights.
         for _ in 0..rounds {
-            let f = fit_weighted(template, s, estimator, &rows, &weights, zero_copper, false)?;
+            let f = fit_weighted(
+                template,
+                s,
+                estimator,
+                &rows,
+                &weights,
+                Start {
+                    zero_copper,
+                    z: start.as_deref(),
+                },
+                false,
+            )?;
             let z = DVector::from_column_slice(&f.estimate.values);
             weights = variance_weights(s, &rows, &z, weighting);
+            start = Some(f.estimate.values);
         }
-        fit_weighted(template, s, estimator, &rows, &weights, zero_copper, true)
+        fit_weighted(
+            template,
+            s,
+            estimator,
+            &rows,
+            &weights,
+            Start {
+                zero_copper,
+                z: start.as_deref(),
+            },
+            full,
+        )
     };
-    let f = run(&vec![false; s.n])?;
-    if estimator != Estimator::Pmsm {
+    let f = run(&vec![false; s.n], None)?;
+    if estimator != Estimator::Pmsm || !full {
         return Ok(f);
     }
     // Copper coefficients the data cannot tell from zero (on the bound, or within
@@ -69,7 +121,8 @@ pub fn fit(
     if !weak.iter().any(|&w| w) {
         return Ok(f);
     }
-    let mut held = run(&weak)?;
+    // From the free fit, the weak coefficients at zero.
+    let mut held = run(&weak, Some(&f.estimate.values))?;
     // Held at zero is an estimate, not knowledge: the model predicts with the free fit's
     // covariance, in which a held coefficient keeps its spread and its trade against the
     // standby and the others. A motion like the data then gets about the interval it had,
@@ -125,18 +178,30 @@ struct LinearDesign {
     y: DVector<f64>,
 }
 
-/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per row).
-/// Without `statistics` the fit's covariance is left zero and its estimate holds only the
-/// values (for a round of iterated weighting, which needs only the residuals).
+/// Where a weighted fit's Levenberg–Marquardt starts and what it holds.
+#[derive(Clone, Copy)]
+struct Start<'a> {
+    /// The copper coefficients held at zero.
+    zero_copper: &'a [bool],
+    /// The `z` to start from (held copper coefficients set to zero); `None`: the linear
+    /// solution.
+    z: Option<&'a [f64]>,
+}
+
+/// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per
+/// row), Levenberg–Marquardt ([`Estimator::Pmsm`]) from `start`. Without `statistics` the
+/// fit's covariance is left zero and its estimate holds only the values (for a round of
+/// iterated weighting, which needs only the residuals).
 fn fit_weighted(
     template: &PowerModel,
     s: &Samples,
     estimator: Estimator,
     rows: &[usize],
     weights: &[f64],
-    zero_copper: &[bool],
+    start: Start,
     statistics: bool,
 ) -> Result<Fit> {
+    let zero_copper = start.zero_copper;
     let (n, nb, np) = (s.n, s.nb, s.params());
     let LinearDesign { lin, to_z, a, y } = linear_design(s, rows, weights);
     let layout = s.layout();
@@ -182,6 +247,11 @@ fn fit_weighted(
             let free: Vec<bool> = (0..np)
                 .map(|k| k < nb || k >= nb + n || !zero_copper[k - nb])
                 .collect();
+            if let Some(start) = start.z {
+                for k in 0..np {
+                    z[k] = if free[k] { start[k] } else { 0.0 };
+                }
+            }
             levenberg_marquardt(s, rows, weights, Some(&free), prior, &mut z)?;
             if statistics {
                 lm_statistics(template, s, rows, weights, Some(&free), prior, &z)?

@@ -9,15 +9,15 @@
 //!
 //! For each trial lag the logs are prepared with the states that much earlier
 //! ([`crate::identification::data::prepare_lagged`]) and the PMSM estimator (unweighted, the
-//! arm's power only, every sample) fitted on the pooled samples; the lag with the least
-//! residual wins: a grid of [`GRID`] points over `+-max`, a grid of [`FINE`] across one coarse
-//! step around its best, and the vertex of the parabola through the fine best and its
-//! neighbours. The linear estimator without copper loss would not do: with
+//! arm's power only, every sample, every copper coefficient free) fitted on the pooled samples; the lag with the least
+//! residual wins: a grid of [`GRID`] points over `+-max`, then [`REFINE`] vertices of the
+//! parabola through the best so far and its neighbours (each trial lag fitted once). The linear estimator without copper loss would not do: with
 //! loads its residual is dominated by the copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
+use super::estimate::fit_free;
 use super::samples::Samples;
-use super::{Estimator, FitOptions, Weighting, fit};
+use super::{Estimator, FitOptions, Weighting};
 use crate::error::Result;
 use crate::identification::data::{Route, prepare_lagged};
 use crate::identification::model::PowerModel;
@@ -27,8 +27,8 @@ use crate::model::Robot;
 /// Trial lags of the coarse grid (odd, so 0 is one of them).
 const GRID: usize = 7;
 
-/// Trial lags of the fine grid across one coarse step around the coarse best.
-const FINE: usize = 5;
+/// Steps of successive parabolic interpolation after the coarse grid.
+const REFINE: usize = 3;
 
 /// The 99 % point of chi-square with one degree of freedom: the evidence a lag needs.
 const LAG_EVIDENCE: f64 = 6.63;
@@ -48,7 +48,7 @@ pub(super) fn find_lag(
         return Ok(0.0);
     }
     let rows = std::cell::Cell::new(0usize);
-    let cost = |lag: f64| -> Result<f64> {
+    let fit_at = |lag: f64| -> Result<f64> {
         let prepared = logs
             .iter()
             .enumerate()
@@ -69,15 +69,19 @@ pub(super) fn find_lag(
             Some(prior) => samples.with_prior(prior.clone())?,
             None => samples,
         };
-        let f = fit(
-            template,
-            &samples,
-            Estimator::Pmsm,
-            Weighting::None,
-            &|_| true,
-        )?;
-        rows.set(f.estimate.rows);
+        let f = fit_free(template, &samples, Estimator::Pmsm, Weighting::None)?;
+        rows.set((0..samples.len()).filter(|&m| samples.fit[m]).count());
         Ok(f.estimate.residual_rms)
+    };
+    // Each trial lag is fitted once: the search and the evidence share the fits.
+    let tried = std::cell::RefCell::new(Vec::<(f64, f64)>::new());
+    let cost = |lag: f64| -> Result<f64> {
+        if let Some(&(_, c)) = tried.borrow().iter().find(|(l, _)| *l == lag) {
+            return Ok(c);
+        }
+        let c = fit_at(lag)?;
+        tried.borrow_mut().push((lag, c));
+        Ok(c)
     };
     // Logs too short or too poor for a fit of their own (with the prior, if any) leave the
     // lag at zero; the identification proper then says what they lack.
@@ -93,41 +97,50 @@ pub(super) fn find_lag(
     Ok(if ratio > LAG_EVIDENCE { lag } else { 0.0 })
 }
 
-/// The least-cost lag within `+-max`.
+/// The least-cost lag within `+-max`: the best of a coarse grid, then [`REFINE`] steps of
+/// successive parabolic interpolation inside the bracket of its neighbours.
 fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
-    // The coarse grid, then a fine one around its best; the vertex of the parabola through
-    // the fine best and its neighbours (kept inside them).
     let step = 2.0 * max / (GRID - 1) as f64;
-    let coarse = best_of((0..GRID).map(|k| -max + k as f64 * step), cost)?;
-    let fine_step = step / (FINE - 1) as f64;
-    let fine: Vec<f64> = (0..FINE)
-        .map(|k| coarse - 0.5 * step + k as f64 * fine_step)
-        .collect();
-    let costs = fine.iter().map(|&l| cost(l)).collect::<Result<Vec<_>>>()?;
-    let k = (0..FINE)
+    let grid: Vec<f64> = (0..GRID).map(|k| -max + k as f64 * step).collect();
+    let costs = grid.iter().map(|&l| cost(l)).collect::<Result<Vec<_>>>()?;
+    let k = (0..GRID)
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
-        .unwrap_or(FINE / 2);
-    if k == 0 || k == FINE - 1 {
-        return Ok(fine[k]);
+        .unwrap_or(GRID / 2);
+    if k == 0 || k == GRID - 1 {
+        return Ok(grid[k]);
     }
-    let (a, b, c) = (costs[k - 1], costs[k], costs[k + 1]);
-    let curvature = a - 2.0 * b + c;
-    let shift = if curvature > 0.0 {
-        (0.5 * (a - c) / curvature).clamp(-1.0, 1.0)
-    } else {
-        0.0
-    };
-    Ok(fine[k] + shift * fine_step)
-}
-
-/// The argument of the least cost among `lags`.
-fn best_of(lags: impl Iterator<Item = f64>, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
-    let mut best = (0.0, f64::INFINITY);
-    for lag in lags {
-        let c = cost(lag)?;
-        if c < best.1 {
-            best = (lag, c);
+    // The bracket (a, b, c): a < b < c, f(b) <= f(a), f(c).
+    let mut br = [
+        (grid[k - 1], costs[k - 1]),
+        (grid[k], costs[k]),
+        (grid[k + 1], costs[k + 1]),
+    ];
+    for _ in 0..REFINE {
+        let [(a, fa), (b, fb), (c, fc)] = br;
+        // The vertex of the parabola through the three, kept a tenth of the bracket away
+        // from its ends and from b (a flat or degenerate parabola: the larger half's middle).
+        let den = (b - a) * (fb - fc) - (b - c) * (fb - fa);
+        let num = (b - a).powi(2) * (fb - fc) - (b - c).powi(2) * (fb - fa);
+        let gap = 0.1 * (c - a);
+        let mut x = if den.abs() > 0.0 {
+            b - 0.5 * num / den
+        } else {
+            f64::NAN
+        };
+        if !(x > a + gap && x < c - gap) || (x - b).abs() < 0.5 * gap {
+            x = if b - a > c - b {
+                0.5 * (a + b)
+            } else {
+                0.5 * (b + c)
+            };
         }
+        let fx = cost(x)?;
+        br = match (x < b, fx <= fb) {
+            (true, true) => [(a, fa), (x, fx), (b, fb)],
+            (true, false) => [(x, fx), (b, fb), (c, fc)],
+            (false, true) => [(b, fb), (x, fx), (c, fc)],
+            (false, false) => [(a, fa), (b, fb), (x, fx)],
+        };
     }
-    Ok(best.0)
+    Ok(br[1].0)
 }
