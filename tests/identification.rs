@@ -297,7 +297,15 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
     let n = robot.dof();
     let p_total: Vec<f64> = (0..t.len()).map(|m| m as f64).collect();
     let p_joint: Vec<f64> = (0..t.len() * n).map(|k| k as f64).collect();
+    // An averaging meter's nodes: PERIOD_NODES per sample across the period before it.
+    let k = powertwin::identification::data::PERIOD_NODES;
+    let t_nodes: Vec<f64> = t
+        .iter()
+        .flat_map(|&tm| (0..k).map(move |j| tm - 0.1 + (j as f64 + 0.5) / k as f64 * 0.1))
+        .collect();
+    let nodes = from_fourier(&traj, &t_nodes);
     let mut p = Prepared {
+        period_nodes: Some(nodes),
         states: states.clone(),
         motion: Box::new(traj),
         motion_t0_s: 0.0,
@@ -321,7 +329,11 @@ fn slow_samples_are_dropped_from_states_and_powers_alike() {
         assert_eq!(p.p_joint[j * n + 3], (m * n + 3) as f64);
         assert_eq!(p.states.dq[4][j], states.dq[4][m]);
         assert!(p.states.dq[1][j].abs() >= min && p.states.dq[4][j].abs() >= min);
+        // The kept sample's nodes went with it.
+        let nodes = p.period_nodes.as_ref().unwrap();
+        assert!((nodes.t[j * k + k - 1] - (tj - 0.05 / k as f64)).abs() < 1e-12);
     }
+    assert_eq!(p.period_nodes.as_ref().unwrap().len(), p.states.len() * k);
     assert_eq!(p.drop_slow_samples(0.0).unwrap(), 0);
     assert!(p.drop_slow_samples(-1.0).is_err());
     assert!(p.drop_slow_samples(f64::NAN).is_err());

@@ -65,7 +65,19 @@ pub struct Prepared {
     pub excited: Vec<usize>,
     /// Whether the logger averaged power over each sample period.
     pub power_averaged: bool,
+    /// For a logger that averages power: [`PERIOD_NODES`] states per sample (sample-major,
+    /// stamped with their log times) at the middles of equal parts of the sample's period,
+    /// whose mean model power is the sample's. The power at the period's middle alone misses
+    /// the power's curvature over the period (the copper loss is convex in the torque, a bus
+    /// clips): at 10 Hz the fit then pushes that gap into the copper coefficients and
+    /// overpredicts slow, holding motions (docs/experiments.md#averaging-meter-over-its-period).
+    /// `None` for an instantaneous meter.
+    pub period_nodes: Option<States>,
 }
+
+/// States per sample period at which the model of an averaging logger's sample is taken (the
+/// midpoint rule on equal parts: its error a sixteenth of the period's middle alone).
+pub const PERIOD_NODES: usize = 4;
 
 impl Prepared {
     /// The known payload timeline in the motion's time (for predictions along `motion`).
@@ -101,6 +113,13 @@ impl Prepared {
         }
         let dropped = self.states.len() - keep.len();
         self.states = self.states.select(&keep);
+        if let Some(nodes) = &self.period_nodes {
+            let kept: Vec<usize> = keep
+                .iter()
+                .flat_map(|&m| (0..PERIOD_NODES).map(move |j| m * PERIOD_NODES + j))
+                .collect();
+            self.period_nodes = Some(nodes.select(&kept));
+        }
         self.p_total = keep.iter().map(|&m| self.p_total[m]).collect();
         if !self.p_joint.is_empty() {
             self.p_joint = keep
@@ -137,6 +156,23 @@ pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
         .map(|k| match k {
             k if k > 0 && power_averaged => 0.5 * (t[k - 1] + t[k]),
             _ => t[k],
+        })
+        .collect()
+}
+
+/// The log times of the [`PERIOD_NODES`] nodes of each sample period `[t_k-1, t_k]` of the
+/// sample times `t` (s), sample-major; the first sample's period is taken as long as the
+/// second's.
+fn period_node_times(t: &[f64]) -> Vec<f64> {
+    let first = if t.len() > 1 { t[1] - t[0] } else { 0.0 };
+    (0..t.len())
+        .flat_map(|k| {
+            let (a, b) = if k > 0 {
+                (t[k - 1], t[k])
+            } else {
+                (t[0] - first, t[0])
+            };
+            (0..PERIOD_NODES).map(move |j| a + (j as f64 + 0.5) / PERIOD_NODES as f64 * (b - a))
         })
         .collect()
 }
@@ -232,7 +268,19 @@ pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepa
     } else {
         states
     };
+    let period_nodes = log.power_averaged.then(|| {
+        let t_nodes = period_node_times(t);
+        let at: Vec<f64> = t_nodes
+            .iter()
+            .map(|s| s - power_lag_s - motion_t0_s)
+            .collect();
+        States {
+            t: t_nodes,
+            ..from_fourier(motion.as_ref(), &at)
+        }
+    });
     Ok(Prepared {
+        period_nodes,
         states,
         motion,
         motion_t0_s,

@@ -149,19 +149,26 @@ fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
     let mut a = DMatrix::zeros(lin.len(), to_z.len());
     let mut y = DVector::zeros(lin.len());
     for (r, &(m, sw)) in lin.iter().enumerate() {
-        let st = s.state[m];
-        let v = &s.dq[st * n..(st + 1) * n];
-        let wb = &s.wb[st * n * nb..(st + 1) * n * nb];
-        let known = &s.tau_known[st * n..(st + 1) * n];
         let joints = match s.motor[m] {
             Some(i) => i..i + 1,
             None => 0..n,
         };
-        for k in 0..nb {
-            a[(r, k)] = sw * joints.clone().map(|i| v[i] * wb[i * nb + k]).sum::<f64>();
+        // The mean over the states the observation averages (one for an instantaneous
+        // meter).
+        let span = s.span[m];
+        let w = sw / span as f64;
+        let mut known_power = 0.0;
+        for st in s.state[m]..s.state[m] + span {
+            let v = &s.dq[st * n..(st + 1) * n];
+            let wb = &s.wb[st * n * nb..(st + 1) * n * nb];
+            let known = &s.tau_known[st * n..(st + 1) * n];
+            for k in 0..nb {
+                a[(r, k)] += w * joints.clone().map(|i| v[i] * wb[i * nb + k]).sum::<f64>();
+            }
+            known_power += joints.clone().map(|i| v[i] * known[i]).sum::<f64>() / span as f64;
         }
         a[(r, s.constant(m) - n)] = sw;
-        y[r] = sw * (s.y[m] - joints.map(|i| v[i] * known[i]).sum::<f64>());
+        y[r] = sw * (s.y[m] - known_power);
     }
     LinearDesign { lin, to_z, a, y }
 }

@@ -98,7 +98,8 @@ pub(super) fn find_lag(
 }
 
 /// The least-cost lag within `+-max`: the best of a coarse grid, then [`REFINE`] steps of
-/// successive parabolic interpolation inside the bracket of its neighbours.
+/// successive parabolic interpolation inside the bracket of its neighbours; 0 when the grid's
+/// best is on its edge.
 fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
     let step = 2.0 * max / (GRID - 1) as f64;
     let grid: Vec<f64> = (0..GRID).map(|k| -max + k as f64 * step).collect();
@@ -106,8 +107,12 @@ fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
     let k = (0..GRID)
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap_or(GRID / 2);
+    // A least cost on the range's edge brackets no minimum: the residual falls on past the
+    // range (a lag beyond it) or is flat and its least value the fits' scatter (a slow,
+    // averaged log whose power hardly depends on the lag). Either way no lag in the range
+    // is told from the others: none is kept.
     if k == 0 || k == GRID - 1 {
-        return Ok(grid[k]);
+        return Ok(0.0);
     }
     // The bracket (a, b, c): a < b < c, f(b) <= f(a), f(c).
     let mut br = [

@@ -11,6 +11,9 @@ impl Samples {
     ///
     /// Allocates nothing: it runs once per observation in every iteration of every fit.
     pub(super) fn power(&self, m: usize, z: &DVector<f64>, grad: Option<&mut [f64]>) -> f64 {
+        if self.span[m] > 1 {
+            return self.mean_power(m, z, grad);
+        }
         let (n, nb) = (self.n, self.nb);
         let p0 = z[self.constant(m)];
         let z = z.as_slice();
@@ -63,5 +66,60 @@ impl Samples {
             return 0.0;
         }
         p
+    }
+
+    /// [`Samples::power`] of an observation that averages its `span` states: the mean of
+    /// each state's power (clipped state by state, as the meter averages what the bus
+    /// carries), and optionally its gradient.
+    fn mean_power(&self, m: usize, z: &DVector<f64>, mut grad: Option<&mut [f64]>) -> f64 {
+        let (n, nb) = (self.n, self.nb);
+        let span = self.span[m];
+        let w = 1.0 / span as f64;
+        let c0 = self.constant(m);
+        let p0 = z[c0];
+        let zs = z.as_slice();
+        let (theta, copper) = (&zs[..nb], &zs[nb..nb + n]);
+        if let Some(g) = grad.as_deref_mut() {
+            g.fill(0.0);
+        }
+        let joints = match self.motor[m] {
+            Some(i) => i..i + 1,
+            None => 0..n,
+        };
+        let clip = self.clipped && self.motor[m].is_none();
+        let mut mean = 0.0;
+        for st in self.state[m]..self.state[m] + span {
+            let wb = &self.wb[st * n * nb..(st + 1) * n * nb];
+            let v = &self.dq[st * n..(st + 1) * n];
+            let known = &self.tau_known[st * n..(st + 1) * n];
+            let tau = |i: usize| -> f64 {
+                let row = &wb[i * nb..(i + 1) * nb];
+                row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
+            };
+            let p = p0
+                + joints
+                    .clone()
+                    .map(|i| {
+                        let t = tau(i);
+                        (v[i] + copper[i] * t) * t
+                    })
+                    .sum::<f64>();
+            if clip && p < 0.0 {
+                continue;
+            }
+            mean += w * p;
+            if let Some(g) = grad.as_deref_mut() {
+                for i in joints.clone() {
+                    let t = tau(i);
+                    let d = w * (v[i] + 2.0 * copper[i] * t);
+                    for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
+                        *gk += d * a;
+                    }
+                    g[nb + i] += w * t * t;
+                }
+                g[c0] += w;
+            }
+        }
+        mean
     }
 }

@@ -8,7 +8,7 @@ use super::layout::Layout;
 use crate::dynamics::Workspace;
 use crate::dynamics::regressor::regressor;
 use crate::error::{Error, Result};
-use crate::identification::data::Prepared;
+use crate::identification::data::{PERIOD_NODES, Prepared};
 use crate::identification::lsq::ColumnPrior;
 use crate::identification::model::PowerModel;
 use crate::identification::prior::Prior;
@@ -55,8 +55,11 @@ pub struct Samples {
     pub(super) dq: Vec<f64>,
     /// Torque of the known payload, `n` per state, N m (zero without payload).
     pub(super) tau_known: Vec<f64>,
-    /// The state of each observation.
+    /// The (first) state of each observation.
     pub(super) state: Vec<usize>,
+    /// The states each observation averages, consecutive from its `state`: 1 for an
+    /// instantaneous meter, [`PERIOD_NODES`] for one that averages over its sample period.
+    pub(super) span: Vec<usize>,
     /// What each observation measured: the arm's power (`None`) or motor `i`'s (0-based).
     pub(super) motor: Vec<Option<usize>>,
     /// Whether the parameters hold a standby power per motor (the logs' motor power is fitted).
@@ -147,6 +150,7 @@ impl Samples {
             dq: Vec::new(),
             tau_known: Vec::new(),
             state: Vec::new(),
+            span: Vec::new(),
             motor: Vec::new(),
             motors: motor_power,
             series: Vec::new(),
@@ -176,12 +180,27 @@ impl Samples {
             }
             let spans = payload_spans(robot, model, base.as_ref(), p)?;
             let fit = fitted(p, min_speed, max_fit_rate_hz);
-            let len = p.states.len();
+            // The model's states: the period's nodes of an averaging meter, else one per
+            // sample.
+            let (states, span) = match &p.period_nodes {
+                Some(nodes) if nodes.len() == p.states.len() * PERIOD_NODES => {
+                    (nodes, PERIOD_NODES)
+                }
+                Some(_) => {
+                    return Err(Error::InvalidInput(format!(
+                        "log {}: {} period nodes for {} samples",
+                        l + 1,
+                        p.period_nodes.as_ref().map_or(0, |s| s.len()),
+                        p.states.len()
+                    )));
+                }
+                None => (&p.states, 1),
+            };
             let first_state = s.dq.len() / n;
-            for m in 0..len {
-                p.states.at(m, &mut q, &mut dq, &mut ddq);
+            for m in 0..states.len() {
+                states.at(m, &mut q, &mut dq, &mut ddq);
                 regressor(robot, &mut ws, &model.layout, &q, &dq, &ddq, &mut w);
-                let t = p.states.t[m];
+                let t = states.t[m];
                 let delta = spans
                     .iter()
                     .rev()
@@ -197,7 +216,7 @@ impl Samples {
                 }
                 s.dq.extend_from_slice(&dq);
             }
-            s.push_observations(l, p, &fit, first_state, folds, logs.len() >= 3);
+            s.push_observations(l, p, &fit, (first_state, span), folds, logs.len() >= 3);
         }
         Ok(s)
     }
@@ -242,6 +261,7 @@ impl Samples {
             dq: dqs,
             tau_known: vec![0.0; len * n],
             state: (0..len).collect(),
+            span: vec![1; len],
             motor: vec![None; len],
             motors: false,
             series: vec![0; len],
@@ -330,16 +350,17 @@ impl Samples {
 }
 
 impl Samples {
-    /// Append the observations of log `l` (`p`, whose states start at `first_state`): the
-    /// arm's power, then each motor's when the samples observe them, every series contiguous
-    /// and in time order, with their fit flags `fit` (one per state), pieces (`folds` blocks
-    /// of the log) and folds (the log itself when `by_log`, else its block).
+    /// Append the observations of log `l` (`p`, whose states start at `first_state`, `span`
+    /// of them per sample): the arm's power, then each motor's when the samples observe them,
+    /// every series contiguous and in time order, with their fit flags `fit` (one per
+    /// sample), pieces (`folds` blocks of the log) and folds (the log itself when `by_log`,
+    /// else its block).
     fn push_observations(
         &mut self,
         l: usize,
         p: &Prepared,
         fit: &[bool],
-        first_state: usize,
+        (first_state, span): (usize, usize),
         folds: usize,
         by_log: bool,
     ) {
@@ -350,7 +371,8 @@ impl Samples {
             // A motor's samples are fitted where the arm's are: near another joint's
             // reversal the motion leaves the route too (docs/experiments.md#motor-power).
             for (m, &fit_m) in fit.iter().enumerate() {
-                self.state.push(first_state + m);
+                self.state.push(first_state + m * span);
+                self.span.push(span);
                 self.motor.push(motor);
                 self.series.push(series);
                 self.y.push(match motor {
