@@ -116,6 +116,18 @@ fn gear_friction_follows_the_direction_of_power_flow() {
     assert!(e.contains("gear_friction_braking_per_Nm"), "{e}");
 }
 
+/// Two runs of `traj` on `rig` (noise seeds 0 and 1), as logged.
+fn two_logs(rig: &Rig, traj: &Fourier) -> Vec<powertwin::measurement::Log> {
+    (0..2)
+        .map(|k| {
+            rig.run(traj, &[], k, serde_json::json!({}))
+                .unwrap()
+                .log("run")
+                .unwrap()
+        })
+        .collect()
+}
+
 /// A 20 s excitation of the IRB 1200 (four periods of 0.2 Hz, 5 harmonics).
 fn excitation(robot: &powertwin::Robot) -> Fourier {
     let n = robot.dof();
@@ -232,14 +244,7 @@ fn identification_finds_the_power_lag() {
             },
             ..base.clone()
         };
-        let logs: Vec<_> = (0..2)
-            .map(|k| {
-                rig.run(&traj, &[], k, serde_json::json!({}))
-                    .unwrap()
-                    .log("run")
-                    .unwrap()
-            })
-            .collect();
+        let logs = two_logs(&rig, &traj);
         let sel = identify_logs(&robot, &logs, &route, &FitOptions::default()).unwrap();
         let found = sel.fit.model.power_lag_s;
         assert!(
@@ -288,14 +293,7 @@ fn an_averaging_meter_is_fitted_on_its_periods_mean() {
             },
             ..base.clone()
         };
-        let logs: Vec<_> = (0..2)
-            .map(|k| {
-                rig.run(&traj, &[], k, serde_json::json!({}))
-                    .unwrap()
-                    .log("run")
-                    .unwrap()
-            })
-            .collect();
+        let logs = two_logs(&rig, &traj);
         let opts = FitOptions {
             max_power_lag_s: 0.0,
             ..FitOptions::default()

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::Args;
 use powertwin::validation::family::{Family, FamilyOptions};
-use powertwin::validation::heldout::{self, HeldoutOptions};
+use powertwin::validation::heldout::{self, Heldout, HeldoutOptions};
 use powertwin::validation::idset::IdSetOptions;
 
 use crate::cli::progress::Bars;
@@ -69,6 +69,25 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
         return family(args, &setup);
     };
     let model = read_model(model_path, &setup.robot)?;
+    let opts = heldout_options(args, &setup)?;
+    let rig = setup.rig();
+    let bars = Bars::new();
+    let (h, datasets) = heldout::run(&rig, &model, &opts, &bars)?;
+    bars.finish();
+    let json = serde_json::to_string_pretty(&h)?;
+    if let Some(dir) = &args.out {
+        write_heldout(args, dir, &json, &h, &datasets)?;
+    }
+    if args.json {
+        return emit(&format!("{json}\n")).map(|_| ExitCode::SUCCESS);
+    }
+    emit(&heldout_table(&h))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The held-out motions `args` ask for on `setup`'s robot: `--count` motions up to
+/// `--max-payload` (the drive file's rated payload by default), from `--seed`.
+fn heldout_options(args: &ValidateArgs, setup: &Setup) -> Result<HeldoutOptions> {
     let rated = setup.drive.rated_payload_kg();
     let Some(max_payload) = args.max_payload.or(rated) else {
         anyhow::bail!(
@@ -84,30 +103,35 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
     if count == 0 {
         anyhow::bail!("--count must be at least 1");
     }
-    let rig = setup.rig();
-    let opts = HeldoutOptions {
+    Ok(HeldoutOptions {
         seed: args.seed.unwrap_or(HELDOUT_SEED),
         ..HeldoutOptions::for_robot(&setup.robot, count, max_payload)?
-    };
-    let bars = Bars::new();
-    let (h, datasets) = heldout::run(&rig, &model, &opts, &bars)?;
-    bars.finish();
-    let json = serde_json::to_string_pretty(&h)?;
-    if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        powertwin::io::write_atomic(&dir.join("heldout.json"), json.as_bytes())?;
-        let names: Vec<String> = h
-            .motions
-            .iter()
-            .map(|m| format!("heldout_{:02}_{}", m.index, m.kind))
-            .collect();
-        let items: Vec<(String, &powertwin::dataset::Dataset)> =
-            names.into_iter().zip(&datasets).collect();
-        write_all(&items, &dir.join("datasets"), args.twin.format())?;
-    }
-    if args.json {
-        return emit(&format!("{json}\n")).map(|_| ExitCode::SUCCESS);
-    }
+    })
+}
+
+/// `heldout.json` (`json`) and every held-out motion's dataset into `dir`.
+fn write_heldout(
+    args: &ValidateArgs,
+    dir: &std::path::Path,
+    json: &str,
+    h: &Heldout,
+    datasets: &[powertwin::dataset::Dataset],
+) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    powertwin::io::write_atomic(&dir.join("heldout.json"), json.as_bytes())?;
+    let names: Vec<String> = h
+        .motions
+        .iter()
+        .map(|m| format!("heldout_{:02}_{}", m.index, m.kind))
+        .collect();
+    let items: Vec<(String, &powertwin::dataset::Dataset)> =
+        names.into_iter().zip(datasets).collect();
+    write_all(&items, &dir.join("datasets"), args.twin.format())?;
+    Ok(())
+}
+
+/// The held-out benchmark as printed: a row per motion, the summaries.
+fn heldout_table(h: &Heldout) -> String {
     let mut o = String::new();
     outln!(
         o,
@@ -169,11 +193,9 @@ pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
         h.plan_power_rmse_w.worst,
         h.baseline_power_rmse_w.worst
     );
-    emit(&o)?;
-    Ok(ExitCode::SUCCESS)
+    o
 }
 
-/// `validate --family N`.
 fn family(args: &ValidateArgs, setup: &Setup) -> Result<ExitCode> {
     let robots = args.family.unwrap_or(0);
     if robots == 0 {

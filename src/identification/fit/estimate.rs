@@ -70,37 +70,19 @@ fn fit_inner(
         } else {
             WLS_ITERATIONS
         };
+        let one = |weights: &[f64], z: Option<&[f64]>, statistics: bool| {
+            let start = Start { zero_copper, z };
+            fit_weighted(template, s, estimator, &rows, weights, start, statistics)
+        };
         let mut start = start.map(|z| z.to_vec());
         // Only the last round's statistics are kept: the earlier ones give only weights.
         for _ in 0..rounds {
-            let f = fit_weighted(
-                template,
-                s,
-                estimator,
-                &rows,
-                &weights,
-                Start {
-                    zero_copper,
-                    z: start.as_deref(),
-                },
-                false,
-            )?;
+            let f = one(&weights, start.as_deref(), false)?;
             let z = DVector::from_column_slice(&f.estimate.values);
             weights = variance_weights(s, &rows, &z, weighting);
             start = Some(f.estimate.values);
         }
-        fit_weighted(
-            template,
-            s,
-            estimator,
-            &rows,
-            &weights,
-            Start {
-                zero_copper,
-                z: start.as_deref(),
-            },
-            full,
-        )
+        one(&weights, start.as_deref(), full)
     };
     let f = run(&vec![false; s.n], None)?;
     if estimator != Estimator::Pmsm || !full {

@@ -18,14 +18,8 @@ impl Samples {
         let p0 = z[self.constant(m)];
         let z = z.as_slice();
         let (theta, copper) = (&z[..nb], &z[nb..nb + n]);
-        let st = self.state[m];
-        let wb = &self.wb[st * n * nb..(st + 1) * n * nb];
-        let v = &self.dq[st * n..(st + 1) * n];
-        let known = &self.tau_known[st * n..(st + 1) * n];
-        let tau = |i: usize| -> f64 {
-            let row = &wb[i * nb..(i + 1) * nb];
-            row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
-        };
+        let (wb, v, known) = self.state_rows(self.state[m]);
+        let tau = |i: usize| torque(wb, known, theta, i);
         if let Some(i) = self.motor[m] {
             let t = tau(i);
             if let Some(g) = grad {
@@ -89,13 +83,8 @@ impl Samples {
         let clip = self.clipped && self.motor[m].is_none();
         let mut mean = 0.0;
         for st in self.state[m]..self.state[m] + span {
-            let wb = &self.wb[st * n * nb..(st + 1) * n * nb];
-            let v = &self.dq[st * n..(st + 1) * n];
-            let known = &self.tau_known[st * n..(st + 1) * n];
-            let tau = |i: usize| -> f64 {
-                let row = &wb[i * nb..(i + 1) * nb];
-                row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
-            };
+            let (wb, v, known) = self.state_rows(st);
+            let tau = |i: usize| torque(wb, known, theta, i);
             let p = p0
                 + joints
                     .clone()
@@ -122,4 +111,23 @@ impl Samples {
         }
         mean
     }
+
+    /// State `st`'s base regressor rows (`n x nb`, row-major), joint speeds (rad/s) and known
+    /// payload torques (N m).
+    fn state_rows(&self, st: usize) -> (&[f64], &[f64], &[f64]) {
+        let (n, nb) = (self.n, self.nb);
+        (
+            &self.wb[st * n * nb..(st + 1) * n * nb],
+            &self.dq[st * n..(st + 1) * n],
+            &self.tau_known[st * n..(st + 1) * n],
+        )
+    }
+}
+
+/// Joint `i`'s torque (N m) from a state's regressor rows `wb` (`theta.len()` columns each),
+/// its known payload torques and the base parameters `theta`.
+fn torque(wb: &[f64], known: &[f64], theta: &[f64], i: usize) -> f64 {
+    let nb = theta.len();
+    let row = &wb[i * nb..(i + 1) * nb];
+    row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
 }

@@ -114,30 +114,8 @@ impl Samples {
         motor_power: bool,
     ) -> Result<Samples> {
         model.check_robot(robot)?;
-        let first = logs
-            .first()
-            .ok_or_else(|| Error::InvalidInput("no logs to identify from".into()))?;
-        crate::identification::data::ensure_motion(logs)?;
-        if logs
-            .iter()
-            .any(|p| p.signal.clipped() != first.signal.clipped())
-        {
-            return Err(Error::InvalidInput(
-                "the logs mix power signals that can and cannot go negative (total vs bus/grid)"
-                    .into(),
-            ));
-        }
+        let first = check_logs(logs, robot.dof(), motor_power)?;
         let n = robot.dof();
-        if motor_power
-            && let Some(l) = logs
-                .iter()
-                .position(|p| p.p_joint.len() != p.states.len() * n)
-        {
-            return Err(Error::InvalidInput(format!(
-                "log {} has no power of each motor: identify from the arm's power only",
-                l + 1
-            )));
-        }
         let nb = model.columns.len();
         let needs_base = logs
             .iter()
@@ -167,8 +145,6 @@ impl Samples {
             prior: None,
         };
         let mut ws = Workspace::new(robot);
-        let mut w = DMatrix::zeros(n, model.layout.len());
-        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for (l, p) in logs.iter().enumerate() {
             if p.p_total.len() != p.states.len() {
                 return Err(Error::InvalidInput(format!(
@@ -186,39 +162,55 @@ impl Samples {
                 Some(nodes) if nodes.len() == p.states.len() * PERIOD_NODES => {
                     (nodes, PERIOD_NODES)
                 }
-                Some(_) => {
+                Some(nodes) => {
                     return Err(Error::InvalidInput(format!(
                         "log {}: {} period nodes for {} samples",
                         l + 1,
-                        p.period_nodes.as_ref().map_or(0, |s| s.len()),
+                        nodes.len(),
                         p.states.len()
                     )));
                 }
                 None => (&p.states, 1),
             };
             let first_state = s.dq.len() / n;
-            for m in 0..states.len() {
-                states.at(m, &mut q, &mut dq, &mut ddq);
-                regressor(robot, &mut ws, &model.layout, &q, &dq, &ddq, &mut w);
-                let t = states.t[m];
-                let delta = spans
-                    .iter()
-                    .rev()
-                    .find(|span| span.from_s <= t)
-                    .and_then(|span| span.delta.as_ref());
-                for i in 0..n {
-                    let row = model.columns.iter().map(|&c| w[(i, c)]);
-                    s.tau_known.push(match delta {
-                        Some(d) => row.clone().zip(d).map(|(a, b)| a * b).sum(),
-                        None => 0.0,
-                    });
-                    s.wb.extend(row);
-                }
-                s.dq.extend_from_slice(&dq);
-            }
+            s.push_states(robot, model, &mut ws, states, &spans);
             s.push_observations(l, p, &fit, (first_state, span), folds, logs.len() >= 3);
         }
         Ok(s)
+    }
+
+    /// Append the regressor rows, speeds and known payload torques of `states` (the payload
+    /// at the flange at each state's time from `spans`).
+    fn push_states(
+        &mut self,
+        robot: &Robot,
+        model: &PowerModel,
+        ws: &mut Workspace,
+        states: &crate::identification::states::States,
+        spans: &[PayloadSpan],
+    ) {
+        let n = self.n;
+        let mut w = DMatrix::zeros(n, model.layout.len());
+        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for m in 0..states.len() {
+            states.at(m, &mut q, &mut dq, &mut ddq);
+            regressor(robot, ws, &model.layout, &q, &dq, &ddq, &mut w);
+            let t = states.t[m];
+            let delta = spans
+                .iter()
+                .rev()
+                .find(|span| span.from_s <= t)
+                .and_then(|span| span.delta.as_ref());
+            for i in 0..n {
+                let row = model.columns.iter().map(|&c| w[(i, c)]);
+                self.tau_known.push(match delta {
+                    Some(d) => row.clone().zip(d).map(|(a, b)| a * b).sum(),
+                    None => 0.0,
+                });
+                self.wb.extend(row);
+            }
+            self.dq.extend_from_slice(&dq);
+        }
     }
 
     /// Samples of pooled `states` (any order) with their total power `p` (W, a signal that
@@ -386,6 +378,34 @@ impl Samples {
             }
         }
     }
+}
+
+/// The first of `logs` (of a robot of `n` joints), after refusing none, logs without
+/// motion, mixed power signals, and logs without each motor's power when `motor_power`.
+fn check_logs(logs: &[Prepared], n: usize, motor_power: bool) -> Result<&Prepared> {
+    let first = logs
+        .first()
+        .ok_or_else(|| Error::InvalidInput("no logs to identify from".into()))?;
+    crate::identification::data::ensure_motion(logs)?;
+    if logs
+        .iter()
+        .any(|p| p.signal.clipped() != first.signal.clipped())
+    {
+        return Err(Error::InvalidInput(
+            "the logs mix power signals that can and cannot go negative (total vs bus/grid)".into(),
+        ));
+    }
+    if motor_power
+        && let Some(l) = logs
+            .iter()
+            .position(|p| p.p_joint.len() != p.states.len() * n)
+    {
+        return Err(Error::InvalidInput(format!(
+            "log {} has no power of each motor: identify from the arm's power only",
+            l + 1
+        )));
+    }
+    Ok(first)
 }
 
 /// The known payloads of log `p` from when each is at the flange, with its base-parameter
