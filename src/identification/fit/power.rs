@@ -84,30 +84,35 @@ impl Samples {
         let mut mean = 0.0;
         for st in self.state[m]..self.state[m] + span {
             let (wb, v, known) = self.state_rows(st);
-            let tau = |i: usize| torque(wb, known, theta, i);
-            let p = p0
-                + joints
-                    .clone()
-                    .map(|i| {
-                        let t = tau(i);
-                        (v[i] + copper[i] * t) * t
-                    })
-                    .sum::<f64>();
+            // The state's power, its gradient added as it goes (each torque computed once);
+            // a state the clip takes is taken out again.
+            let add = |g: Option<&mut [f64]>, w: f64| -> f64 {
+                let mut p = p0;
+                let mut g = g;
+                for i in joints.clone() {
+                    let t = torque(wb, known, theta, i);
+                    p += (v[i] + copper[i] * t) * t;
+                    if let Some(g) = g.as_deref_mut() {
+                        let d = w * (v[i] + 2.0 * copper[i] * t);
+                        for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
+                            *gk += d * a;
+                        }
+                        g[nb + i] += w * t * t;
+                    }
+                }
+                if let Some(g) = g {
+                    g[c0] += w;
+                }
+                p
+            };
+            let p = add(grad.as_deref_mut(), w);
             if clip && p < 0.0 {
+                if grad.is_some() {
+                    add(grad.as_deref_mut(), -w);
+                }
                 continue;
             }
             mean += w * p;
-            if let Some(g) = grad.as_deref_mut() {
-                for i in joints.clone() {
-                    let t = tau(i);
-                    let d = w * (v[i] + 2.0 * copper[i] * t);
-                    for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
-                        *gk += d * a;
-                    }
-                    g[nb + i] += w * t * t;
-                }
-                g[c0] += w;
-            }
         }
         mean
     }
