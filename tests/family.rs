@@ -7,6 +7,7 @@ mod common;
 use powertwin::identification::data::Route;
 use powertwin::identification::fit::{FitOptions, identify_logs};
 use powertwin::model::drive::Drive;
+use powertwin::trajectory::Trajectory;
 use powertwin::trajectory::fourier::Fourier;
 use powertwin::twin::Fidelity;
 use powertwin::twin::family::FamilyTable;
@@ -363,4 +364,106 @@ fn the_cli_refuses_bad_family_input() {
     ]);
     assert_ne!(code, 0);
     assert!(err.contains("stribeck_peak"), "{err}");
+}
+
+/// A cabinet load the meter sees after the bus clip puts a floor under the reading. Gentle
+/// identification logs never reach it, so the fit cannot find it (the standby absorbs the
+/// cabinet). The model records the lowest level its logs showed the meter at, and a motion
+/// that brakes below that level gets an interval that holds what the meter might read there.
+#[test]
+fn a_meter_never_seen_low_widens_the_interval_of_a_motion_that_brakes() {
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let base = common::irb1200_rig(
+        &robot,
+        &drive,
+        Fidelity::Realistic,
+        NoiseSettings::default(),
+    );
+    let rig = Rig {
+        sensor: SensorSettings {
+            rate_hz: 20.0,
+            power_lag_s: 0.0,
+            ..base.sensor
+        },
+        twin: powertwin::twin::TwinConfig {
+            cabinet_power_w: 50.0,
+            ..base.twin.clone()
+        },
+        ..base.clone()
+    };
+    let traj = excitation(&robot);
+    let logs = two_logs(&rig, &traj);
+    let route = [Route::Fourier {
+        base_freq_hz: 0.2,
+        harmonics: 5,
+    }];
+    let opts = FitOptions {
+        max_power_lag_s: 0.0,
+        ..FitOptions::default()
+    };
+    let model = identify_logs(&robot, &logs, &route, &opts)
+        .unwrap()
+        .fit
+        .model;
+    let lowest = model
+        .lowest_seen
+        .expect("a bus signal has a lowest seen level");
+    assert!(lowest > 45.0, "lowest seen {lowest} W with a 50 W cabinet");
+    // The same excitation twice as fast and wider: the arm regenerates hard.
+    let n = robot.dof();
+    let fast = Fourier::new(
+        0.4,
+        vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0],
+        vec![vec![0.45, -0.2]; n],
+        vec![vec![0.3, 0.15]; n],
+        2.0,
+    )
+    .unwrap();
+    let truth = rig.run(&fast, &[], 7, serde_json::json!({})).unwrap();
+    let true_j = truth.truth.energy_grid();
+    let with = model.predict(&robot, &fast, &[], 1.0, 1e-3).unwrap();
+    let without = powertwin::identification::model::PowerModel {
+        lowest_seen: None,
+        ..model.clone()
+    }
+    .predict(&robot, &fast, &[], 1.0, 1e-3)
+    .unwrap();
+    let miss = (with.energy_j - true_j).abs();
+    assert!(
+        miss > without.interval_j && miss <= with.interval_j,
+        "{true_j:.1} J true, {:.1} J predicted: interval +-{:.1} J without the unseen level, \
+         +-{:.1} J with it",
+        with.energy_j,
+        without.interval_j,
+        with.interval_j
+    );
+}
+
+/// The relative part of the structure error is taken at no less than the model's
+/// `structure_active_W`: a motion less active than the cross-validation pieces (here a model
+/// that predicts only its standby, so no activity at all) keeps the error they showed.
+#[test]
+fn a_quiet_motion_keeps_the_structure_error_of_the_pieces() {
+    let robot = common::irb1200();
+    let layout = powertwin::dynamics::ParamLayout::new(&robot, true, true);
+    let mut model =
+        powertwin::identification::model::PowerModel::new(&robot, layout, false).unwrap();
+    model.constant = vec![10.0; robot.dof()];
+    model.structure_rel = 0.01;
+    let traj = excitation(&robot);
+    let interval = |active_w: f64| {
+        let m = powertwin::identification::model::PowerModel {
+            structure_active: active_w,
+            ..model.clone()
+        };
+        m.predict(&robot, &traj, &[], 1.0, 1e-2).unwrap().interval_j
+    };
+    assert_eq!(interval(0.0), 0.0);
+    let expected = 1.96 * 0.01 * 80.0 * traj.duration();
+    assert!(
+        (interval(80.0) - expected).abs() < 1e-9 * expected,
+        "{}",
+        interval(80.0)
+    );
 }

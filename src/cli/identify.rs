@@ -667,6 +667,9 @@ fn write_and_report(
     if let Some(d) = determination {
         report_determination(d);
     }
+    if let Some(low) = model.lowest_seen {
+        report_lowest_seen(low, estimates.last().map_or(0.0, |e| e.residual_rms));
+    }
     if args.json {
         let report = json!({
             "model_path": args.out,
@@ -676,6 +679,7 @@ fn write_and_report(
             "condition_number": estimates.last().map(|e| e.cond),
             "physically_consistent": consistency.consistent,
             "determination": determination,
+            "lowest_seen_W": model.lowest_seen,
             "holdout": held_out,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -702,5 +706,21 @@ fn report_determination(d: &Determination) {
     );
     if let Some(advice) = d.advice() {
         eprintln!("to determine them: {advice}; the intervals carry the prior's width meanwhile");
+    }
+}
+
+/// Print the lowest level the logs show a clipped meter at, and how to see it lower when it
+/// stays above zero by more than the fit's residual (`residual_w`, W).
+fn report_lowest_seen(low: f64, residual_w: f64) {
+    eprintln!(
+        "lowest power the logs show the meter at: {low:.1} W; below it what the meter reads is \
+         undetermined (a cabinet load after the bus clip would hold it up): predictions' \
+         intervals hold half the energy spent below it"
+    );
+    if low > 2.0 * residual_w {
+        eprintln!(
+            "to determine it: add a run that brakes hard enough for the meter to reach 0 W \
+             (fast stops carrying a load)"
+        );
     }
 }

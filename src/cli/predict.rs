@@ -171,6 +171,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "predicted_J": pred.energy_j, "interval_95_J": pred.interval_j,
                 "measured_J": r.measured_j, "error_vs_measured_pct": r.error_pct(),
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
+                "below_seen_J": pred.below_seen_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -196,13 +197,14 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
             };
             let _ = writeln!(
                 o,
-                "{}: predicted {:.2} ± {:.2} J (95 %){sim}, measured {:.2} J ({:+.3} %), power RMSE {:.3} W",
+                "{}: predicted {:.2} ± {:.2} J (95 %){sim}, measured {:.2} J ({:+.3} %), power RMSE {:.3} W{}",
                 r.source,
                 pred.energy_j,
                 pred.interval_j,
                 r.measured_j,
                 r.error_pct(),
-                r.rmse_w()
+                r.rmse_w(),
+                below_seen(pred)
             );
         }
         super::emit(&o)?;
@@ -264,16 +266,31 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "duration_s": pred.duration_s,
             "mean_power_W": price.mean_power_w(),
             "power_signal": model.signal.name(),
+            "below_seen_J": pred.below_seen_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {
         super::emit(&format!(
-            "{source}: predicted {:.2} ± {:.2} J (95 %), duration {:.3} s, mean power {:.2} W\n",
+            "{source}: predicted {:.2} ± {:.2} J (95 %), duration {:.3} s, mean power {:.2} W{}\n",
             pred.energy_j,
             pred.interval_j,
             pred.duration_s,
-            price.mean_power_w()
+            price.mean_power_w(),
+            below_seen(pred)
         ))?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The note a prediction carries when its power goes below the lowest level the
+/// identification logs show the meter at (empty otherwise).
+fn below_seen(pred: &powertwin::identification::model::Prediction) -> String {
+    if pred.below_seen_j > 0.0 {
+        format!(
+            "; {:.2} J of it below the lowest power identification saw the meter at (undetermined, in the interval)",
+            pred.below_seen_j
+        )
+    } else {
+        String::new()
+    }
 }

@@ -96,6 +96,26 @@ pub struct PowerModel {
     /// works.
     #[serde(default)]
     pub structure_rel: f64,
+    /// Least mean active power at which a prediction takes the relative part of its structure
+    /// error, W: [`crate::identification::tuning::STRUCTURE_ACTIVE_FLOOR`] of the
+    /// cross-validation pieces' mean active power `|P - P0|`. The pieces cannot tell a constant
+    /// error from a proportional one below the activity they cover, and held-out motions less
+    /// active than them miss by as many watts
+    /// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data).
+    #[serde(default, rename = "structure_active_W")]
+    pub structure_active: f64,
+    /// For a clipped signal (DC bus, grid): the lowest power the identification logs
+    /// measured (their 1st percentile), W. Below it the meter was never seen: a cabinet load
+    /// after the bus clip puts a floor under the reading that the fit cannot find from logs
+    /// that never reach it. A prediction adds half the energy its signal spends below this
+    /// level to its standard deviation (`None`: no such term, an unclipped signal or an older
+    /// file).
+    #[serde(
+        default,
+        rename = "lowest_seen_W",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub lowest_seen: Option<f64>,
     /// Lag of the logged power behind the logged joints found in the identification logs, s
     /// (positive: the power is late; a meter on its own clock or with a filter). Predicting
     /// the power at a log's samples shifts by it; energies of motions do not depend on it.
@@ -126,6 +146,8 @@ impl PowerModel {
             covariance: Vec::new(),
             structure_sigma: 0.0,
             structure_rel: 0.0,
+            structure_active: 0.0,
+            lowest_seen: None,
             power_lag_s: 0.0,
         })
     }
@@ -192,10 +214,16 @@ impl PowerModel {
         for (what, v) in [
             ("structure_sigma_W", self.structure_sigma),
             ("structure_rel", self.structure_rel),
+            ("structure_active_W", self.structure_active),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(format!("{what} = {v} must be finite and >= 0")));
             }
+        }
+        if let Some(v) = self.lowest_seen
+            && !v.is_finite()
+        {
+            return Err(bad(format!("lowest_seen_W = {v} must be finite")));
         }
         Ok(())
     }
@@ -449,7 +477,9 @@ impl PowerModel {
     /// `events` (as in [`PowerModel::energy_with_payloads`]), with its 95 % interval: the
     /// parameter covariance propagated through the energy (which is linear in the base
     /// parameters) plus the cross-validated structure error, `structure_sigma_W` times the
-    /// motion's duration and `structure_rel` times its active energy `integral |P - P0| dt`.
+    /// motion's duration and `structure_rel` times its active energy `integral |P - P0| dt`
+    /// (at least `structure_active_W` times the duration), plus half the energy a clipped
+    /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined).
     /// `dt`: integration step, s.
     pub fn predict(
         &self,
@@ -471,7 +501,8 @@ impl PowerModel {
         let h = traj.duration() / steps as f64;
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
-        let (mut motor, mut grid, mut active) = (0.0, 0.0, 0.0);
+        let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
+        let lowest_seen = if clipped { self.lowest_seen } else { None };
         let standby: f64 = self.constant.iter().sum();
         let mut g = vec![0.0; np];
         let coulomb = self.coulomb_params();
@@ -484,6 +515,9 @@ impl PowerModel {
             grid += weight * total.max(0.0);
             let signal = if clipped { total.max(0.0) } else { total };
             active += weight * (signal - standby).abs();
+            if let Some(low) = lowest_seen {
+                unseen += weight * (low - signal).max(0.0);
+            }
             if clipped && total < 0.0 {
                 return;
             }
@@ -511,9 +545,11 @@ impl PowerModel {
             0.0
         };
         let duration = traj.duration();
+        let active = active.max(self.structure_active * duration);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
-            + (self.structure_rel * active).powi(2))
+            + (self.structure_rel * active).powi(2)
+            + (0.5 * unseen).powi(2))
         .sqrt();
         Ok(Prediction {
             energy_j: if clipped { grid } else { motor },
@@ -521,6 +557,7 @@ impl PowerModel {
             motor_j: motor,
             grid_j: grid,
             duration_s: duration,
+            below_seen_j: unseen,
         })
     }
 
@@ -580,6 +617,11 @@ pub struct Prediction {
     /// Duration of the motion, s.
     #[serde(rename = "duration_s")]
     pub duration_s: f64,
+    /// Energy the predicted signal spends below the lowest level the identification logs show
+    /// a clipped meter at (`integral max(lowest_seen - signal, 0) dt`), J: what the meter
+    /// reads there is undetermined; half of it is in the interval's standard deviation.
+    #[serde(rename = "below_seen_J")]
+    pub below_seen_j: f64,
 }
 
 /// Predicted energy of a motion.

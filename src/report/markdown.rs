@@ -45,7 +45,8 @@ fn heldout_intro(w: &mut String, r: &Results) {
          cross-validation (leave one run out; mean-power error per candidate: {}; fitted on \
          {}; weighting `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
          95 % intervals add to the parameter covariance a structure error averaged over what \
-         the cross-validation pieces allow ({:.3} W plus {:.2} % of the active power). It then predicts \
+         the cross-validation pieces allow ({:.3} W plus {:.2} % of the active power, taken at no \
+         less than {:.1} W){}. It then predicts \
          {} motions drawn from seed {} that no identification saw (random Fourier motions, \
          point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
          10 Hz log of each (rests held still, the least-jerk spline through the positions \
@@ -103,6 +104,11 @@ fn heldout_intro(w: &mut String, r: &Results) {
             )),
         m.structure_sigma_w,
         100.0 * m.structure_rel,
+        m.structure_active_w,
+        m.lowest_seen_w.map_or(String::new(), |w| format!(
+            ", and half the energy a motion's power spends below {w:.1} W, the lowest the \
+             identification logs show the meter at (what it reads there is undetermined)"
+        )),
         h.motions.len(),
         h.seed
     );

@@ -68,6 +68,13 @@ pub struct ModelInfo {
     /// Relative structure error of the chosen model's active power (cross-validated, as
     /// `structure_sigma_W`).
     pub structure_rel: f64,
+    /// Least mean active power at which predictions take the relative part, W.
+    #[serde(rename = "structure_active_W")]
+    pub structure_active_w: f64,
+    /// Lowest power the identification logs show a clipped meter at, W: what it reads below
+    /// is undetermined and widens the intervals of motions that go there.
+    #[serde(rename = "lowest_seen_W")]
+    pub lowest_seen_w: Option<f64>,
     /// Weighting of the samples in the fit (`none`, `per-log`, `power-level`).
     pub weighting: Weighting,
     /// Whether the model was made physically consistent in the pipeline.
@@ -248,6 +255,8 @@ impl Results {
                 cv: outcome.idset.selection.scores.clone(),
                 structure_sigma_w: outcome.model.structure_sigma,
                 structure_rel: outcome.model.structure_rel,
+                structure_active_w: outcome.model.structure_active,
+                lowest_seen_w: outcome.model.lowest_seen,
                 weighting: outcome.idset.weighting,
                 consistent: outcome.idset.selection.consistent.is_some(),
                 motor_power: outcome.idset.selection.motor_power,

@@ -91,8 +91,20 @@ pub fn select(
     };
     let chosen = scores[best].estimator;
     let mut f = full.swap_remove(best)?;
-    let StructureError { sigma_w, rel } = structure[best];
-    (f.model.structure_sigma, f.model.structure_rel) = (sigma_w, rel);
+    let StructureError {
+        sigma_w,
+        rel,
+        active_w,
+    } = structure[best];
+    (
+        f.model.structure_sigma,
+        f.model.structure_rel,
+        f.model.structure_active,
+    ) = (
+        sigma_w,
+        rel,
+        crate::identification::tuning::STRUCTURE_ACTIVE_FLOOR * active_w,
+    );
     Ok(Selection {
         scores,
         chosen,

@@ -99,6 +99,7 @@ pub fn identify_logs(
         selection.consistent = Some(consistent);
     }
     selection.fit.model.power_lag_s = lag;
+    selection.fit.model.lowest_seen = samples.lowest_seen();
     Ok(selection)
 }
 

@@ -339,6 +339,24 @@ impl Samples {
             None => layout.standby(),
         }
     }
+
+    /// For a clipped signal, the 1st percentile of the arm's measured power, W: the lowest
+    /// level the logs show the meter at, robust to its noise (`None` for an unclipped signal
+    /// or no arm's power).
+    pub(super) fn lowest_seen(&self) -> Option<f64> {
+        if !self.clipped {
+            return None;
+        }
+        let mut arm: Vec<f64> = (0..self.len())
+            .filter(|&m| self.motor[m].is_none())
+            .map(|m| self.y[m])
+            .collect();
+        if arm.is_empty() {
+            return None;
+        }
+        arm.sort_by(f64::total_cmp);
+        Some(arm[(arm.len() - 1) / 100])
+    }
 }
 
 impl Samples {

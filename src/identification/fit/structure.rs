@@ -23,6 +23,8 @@ pub(super) struct StructureError {
     pub sigma_w: f64,
     /// `sqrt E[rel^2]`, dimensionless: the part proportional to the mean active power.
     pub rel: f64,
+    /// The pieces' mean active power, W: below it they cannot tell the two parts apart.
+    pub active_w: f64,
 }
 
 /// The structure error of a model: the variance of the mean-power error on motions it was not
@@ -103,6 +105,7 @@ pub(super) fn structure_fit(pieces: &[Piece]) -> StructureError {
     StructureError {
         sigma_w: (s2 / total).sqrt(),
         rel: (r2 / total).sqrt(),
+        active_w: mean_active,
     }
 }
 
@@ -137,6 +140,7 @@ mod tests {
         let StructureError {
             sigma_w: sigma,
             rel,
+            ..
         } = structure_fit(&pieces(0.3, 0.005, 400, 1));
         assert!((sigma - 0.3).abs() < 0.1, "sigma {sigma}");
         assert!((rel - 0.005).abs() < 0.0012, "rel {rel}");
@@ -144,12 +148,14 @@ mod tests {
         let StructureError {
             sigma_w: sigma,
             rel,
+            ..
         } = structure_fit(&pieces(0.0, 0.0, 400, 2));
         assert!(sigma < 0.05 && rel < 5e-4, "sigma {sigma}, rel {rel}");
         // A relative error alone is found as such.
         let StructureError {
             sigma_w: sigma,
             rel,
+            ..
         } = structure_fit(&pieces(0.0, 0.01, 400, 3));
         assert!(
             sigma < 0.2 && (rel - 0.01).abs() < 0.002,
@@ -170,6 +176,7 @@ mod tests {
             let StructureError {
                 sigma_w: sigma,
                 rel,
+                ..
             } = structure_fit(&pieces(truth, 0.0, 40, 100 + seed));
             // The variance added to a piece of 100 W active power, W^2.
             let added = sigma * sigma + (rel * 100.0).powi(2);
@@ -203,6 +210,7 @@ mod tests {
                 let StructureError {
                     sigma_w: sigma,
                     rel,
+                    ..
                 } = structure_fit(&p);
                 assert!(
                     sigma < 3.0 * rms && rel * active < 3.0 * rms,
@@ -221,6 +229,7 @@ mod tests {
         let StructureError {
             sigma_w: sigma,
             rel,
+            ..
         } = structure_fit(&p);
         assert_eq!(rel, 0.0);
         assert!(
