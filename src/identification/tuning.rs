@@ -7,7 +7,8 @@ use crate::identification::fit::Weighting;
 /// Joint speed (rad/s) below which an excited joint's samples are not fitted on (the Coulomb
 /// sign and stiction around velocity reversals are uncertain there), unless the robot is held
 /// exactly still. Why 0.05: it leaves out the reversals without losing the slow motion that
-/// shows the friction (docs/experiments.md#fit-options).
+/// shows the friction (docs/experiments.md#fit-options); on the family of truths 0.01, 0.02 and
+/// 0.1 were no better across seeds (docs/experiments.md#the-least-fitted-speed-across-the-family).
 pub const MIN_SPEED: f64 = 0.05;
 
 /// Fastest rate (Hz) at which a log's states are fitted on; a faster log is fitted on every
