@@ -53,8 +53,9 @@ pub const MAX_POWER_LAG_S: f64 = 0.1;
 /// activity, so they cannot tell a constant error from a proportional one, and on the family of
 /// truths the slow linear moves (a fifth of the pieces' activity) missed by as many watts as the
 /// pieces did. Why 0.75: pooled over 16 family robots (two family seeds, 2 x 12 held-out motions
-/// each), 0.5 left 91.7 % coverage (median |z| 0.76), 0.75 gave 94.0 % (0.64) and 1 gave 94.8 %
-/// with a median |z| of 0.51, below the 0.55 a calibrated interval has
+/// each; without the meter's lowest-level term), 0.5 left 90.6 % coverage (median |z| 0.76),
+/// 0.75 gave 93.0 % (0.64) and 1 gave 94.0 % with a median |z| of 0.53, below the 0.55 a
+/// calibrated interval has
 /// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data).
 pub const STRUCTURE_ACTIVE_FLOOR: f64 = 0.75;
 
