@@ -344,9 +344,9 @@ fn the_cli_refuses_bad_family_input() {
         ),
         (
             vec![
-                "dataset", "--truth", "family:3", "--count", "1", "--out", "o",
+                "dataset", "--truth", "family:x", "--count", "1", "--out", "o",
             ],
-            "simulate --truth family:SEED",
+            "whole number",
         ),
     ] {
         let (code, _, err) = common::run(&args);
@@ -364,6 +364,40 @@ fn the_cli_refuses_bad_family_input() {
     ]);
     assert_ne!(code, 0);
     assert!(err.contains("stribeck_peak"), "{err}");
+}
+
+/// `dataset --truth family:SEED`: item `j` runs robot `j` of the family (the one `validate
+/// --family N --seed SEED` draws `j`-th), recorded in its `meta.json`, along the same motion
+/// as item `j` of the set without the family.
+#[test]
+fn dataset_items_run_robots_of_the_family() {
+    let (fam, plain) = (common::tmp("dataset_family"), common::tmp("dataset_plain"));
+    for (dir, truth) in [(&fam, "family:2"), (&plain, "realistic")] {
+        let (code, _, err) = common::run(&[
+            "dataset",
+            "--truth",
+            truth,
+            "--count",
+            "2",
+            "--seed",
+            "5",
+            "--format",
+            "csv",
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+    let meta = |d: &std::path::Path, j: usize| -> serde_json::Value {
+        let text = std::fs::read_to_string(d.join(format!("item_{j:06}/meta.json"))).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    for j in 0..2 {
+        let (f, p) = (meta(&fam, j), meta(&plain, j));
+        assert_eq!(f["family"]["seed"], 2_000_000 + 10 * j as u64);
+        assert!(p.get("family").is_none());
+        assert_eq!(f["trajectory"], p["trajectory"]);
+    }
 }
 
 /// A cabinet load the meter sees after the bus clip puts a floor under the reading. Gentle
@@ -466,4 +500,96 @@ fn a_quiet_motion_keeps_the_structure_error_of_the_pieces() {
         "{}",
         interval(80.0)
     );
+}
+
+/// A model identified without payloads, asked about a 5.3 kg payload: with the drive file's
+/// copper-loss coefficients as a prior, the wrist's copper loss (which unloaded torques barely
+/// show) is kept, and the payload's losses beyond what the logs carried are in the interval,
+/// so the prediction stays inside it; without that prior the unloaded fit holds the wrist's
+/// coefficients at zero and predicts the payload's copper loss low
+/// (docs/experiments.md#the-drive-files-copper-as-a-prior).
+#[test]
+fn an_unloaded_identification_keeps_the_copper_loss_a_payload_adds() {
+    use powertwin::identification::prior::{Prior, PriorWidths};
+    use powertwin::model::payload::PayloadEvent;
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let base = common::irb1200_rig(
+        &robot,
+        &drive,
+        Fidelity::Realistic,
+        NoiseSettings::default(),
+    );
+    let plant = FamilyTable::default()
+        .draw(&robot, &drive, &base.twin, &base.sensor, 1_000_000)
+        .unwrap();
+    let rig = Rig {
+        plant: Some(&plant),
+        ..base.clone()
+    };
+    let traj = excitation(&robot);
+    let logs = two_logs(&rig, &traj);
+    let route = [Route::Fourier {
+        base_freq_hz: 0.2,
+        harmonics: 5,
+    }];
+    let prior = Prior::for_robot(&robot, Some(&drive), &PriorWidths::default()).unwrap();
+    let identify = |prior: Prior| {
+        let opts = FitOptions {
+            prior: Some(prior),
+            ..FitOptions::default()
+        };
+        identify_logs(&robot, &logs, &route, &opts)
+            .unwrap()
+            .fit
+            .model
+    };
+    let with = identify(prior.clone());
+    let without = identify(Prior {
+        copper: vec![None; robot.dof()],
+        ..prior
+    });
+    // A held-out motion carrying the tool and the 4 kg load.
+    let payload = powertwin::model::builtin::payload("tool")
+        .unwrap()
+        .combined(&powertwin::model::builtin::payload("load_4kg").unwrap());
+    let events = [PayloadEvent {
+        t_s: 0.0,
+        payload: Some(payload),
+    }];
+    let n = robot.dof();
+    let held_out = Fourier::new(
+        0.1,
+        vec![0.3, 0.4, 0.0, 0.5, 1.0, -0.5],
+        vec![vec![0.4, -0.2, 0.1]; n],
+        vec![vec![-0.3, 0.2, 0.05]; n],
+        2.0,
+    )
+    .unwrap();
+    let truth = rig
+        .run(&held_out, &events, 5, serde_json::json!({}))
+        .unwrap();
+    let true_j = truth.truth.energy_grid();
+    let predict = |m: &powertwin::identification::model::PowerModel| {
+        let p = m.predict(&robot, &held_out, &events, 1.0, 1e-3).unwrap();
+        (p.energy_j - true_j, p.interval_j)
+    };
+    let ((err_with, int_with), (err_without, int_without)) = (predict(&with), predict(&without));
+    // The model knows its logs carried nothing: the payload's losses beyond that are in the
+    // interval (`unseen_load_J`), which without that term is narrower.
+    assert_eq!(with.payload_seen, Some(0.0));
+    let blind = powertwin::identification::model::PowerModel {
+        payload_seen: None,
+        ..with.clone()
+    };
+    let (_, int_blind) = predict(&blind);
+    eprintln!(
+        "copper {:?} / {:?}; true {true_j:.1} J: with the copper prior {err_with:+.1} +- \
+         {int_with:.1} J (+- {int_blind:.1} J without the unseen load), without it \
+         {err_without:+.1} +- {int_without:.1} J",
+        with.copper, without.copper
+    );
+    assert!(err_with.abs() <= int_with, "{err_with} +- {int_with}");
+    assert!(err_with.abs() < err_without.abs());
+    assert!(int_blind < int_with);
 }

@@ -255,11 +255,16 @@ class Run:
 class Prediction:
     """The predicted energy of a logged motion (`powertwin predict`): `energy_J` and its 95 %
     interval half width `interval_J` (J), the measured energy `measured_J`, and the power at
-    the logged samples: `t_s` (s), `power_W` (predicted), `measured_W` (W)."""
+    the logged samples: `t_s` (s), `power_W` (predicted), `measured_W` (W). `below_seen_J`
+    and `unseen_load_J` (J) are the parts of the motion the identification logs never showed
+    (a clipped meter below its lowest seen level; a payload heavier than they carried), as
+    `predict --json` gives them; the interval includes them."""
 
     energy_J: float
     interval_J: float
     duration_s: float
+    below_seen_J: float
+    unseen_load_J: float
     measured_J: float
     error_pct: float
     power_rmse_W: float
@@ -272,11 +277,14 @@ class Prediction:
 class PlanPrediction:
     """The predicted energy of a planned motion (`powertwin predict --trajectory`):
     `energy_J` with its 95 % interval half width `interval_J` (J), `duration_s`,
-    `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s)."""
+    `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s);
+    `below_seen_J` and `unseen_load_J` (J) as in `Prediction`."""
 
     energy_J: float
     interval_J: float
     duration_s: float
+    below_seen_J: float
+    unseen_load_J: float
     mean_power_W: float
     t_s: np.ndarray
     power_W: np.ndarray

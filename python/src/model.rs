@@ -76,9 +76,10 @@ fn widths(w: Option<std::collections::HashMap<String, f64>>) -> PyResult<PriorWi
             "inertia" => &mut out.inertia_rel,
             "friction" => &mut out.friction_rel,
             "rotor" => &mut out.rotor_rel,
+            "copper" => &mut out.copper_rel,
             other => {
                 return Err(value_error(format!(
-                    "prior_widths: unknown key '{other}' (mass, com, inertia, friction, rotor)"
+                    "prior_widths: unknown key '{other}' (mass, com, inertia, friction, rotor, copper)"
                 )));
             }
         };
@@ -235,6 +236,8 @@ fn plan_dict<'py>(py: Python<'py>, p: &PlanPrice, t0: f64) -> PyResult<Bound<'py
     d.set_item("energy_J", pred.energy_j)?;
     d.set_item("interval_J", pred.interval_j)?;
     d.set_item("duration_s", pred.duration_s)?;
+    d.set_item("below_seen_J", pred.below_seen_j)?;
+    d.set_item("unseen_load_J", pred.unseen_load_j)?;
     d.set_item("mean_power_W", p.mean_power_w())?;
     let t: Vec<f64> = p.t_s.iter().map(|t| t + t0).collect();
     d.set_item("t_s", PyArray1::from_vec(py, t))?;
@@ -320,6 +323,8 @@ impl PyModel {
         d.set_item("energy_J", lp.prediction.energy_j)?;
         d.set_item("interval_J", lp.prediction.interval_j)?;
         d.set_item("duration_s", lp.prediction.duration_s)?;
+        d.set_item("below_seen_J", lp.prediction.below_seen_j)?;
+        d.set_item("unseen_load_J", lp.prediction.unseen_load_j)?;
         d.set_item("measured_J", lp.measured_j)?;
         d.set_item("error_pct", lp.error_pct())?;
         d.set_item("power_rmse_W", lp.rmse_w())?;

@@ -10,11 +10,12 @@ use powertwin::model::drive::Drive;
 use powertwin::model::payload::Payload;
 use powertwin::model::urdf::{LoadOptions, load_str};
 use powertwin::twin::TwinConfig;
+use powertwin::twin::family::{FamilyTable, Plant};
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
 use pyo3::prelude::*;
 
-use crate::{ctx, parse};
+use crate::{ctx, parse, value_error};
 
 /// A robot: its URDF, the joints locked at 0 and its drive file (rotor inertia, friction,
 /// efficiency, losses).
@@ -202,6 +203,8 @@ pub struct Setup {
     pub payload: Option<Payload>,
     pub twin: TwinConfig,
     pub sensor: SensorSettings,
+    /// The family seed of `truth="family:SEED"`, and the robot it draws (the built-in table).
+    pub family: Option<(u64, Plant)>,
 }
 
 /// The payloads of the CLI's repeated `--payload NAME|PATH`, combined (a path that exists is
@@ -240,7 +243,20 @@ impl TwinOptions {
                 NoiseSettings::from_toml_str(&text, path).map_err(ctx(""))?
             }
         };
-        let fidelity: Fidelity = parse("truth", &self.truth)?;
+        // `family:SEED`: a realistic robot of the family, drawn below around the files.
+        let family_seed = match self.truth.strip_prefix("family:") {
+            Some(seed) => Some(seed.trim().parse::<u64>().map_err(|_| {
+                value_error(format!(
+                    "truth '{}': the family seed must be a whole number >= 0 (family:SEED)",
+                    self.truth
+                ))
+            })?),
+            None => None,
+        };
+        let fidelity: Fidelity = match family_seed {
+            Some(_) => Fidelity::Realistic,
+            None => parse("truth", &self.truth)?,
+        };
         let realistic = matches!(fidelity, Fidelity::Realistic);
         let signal: PowerSignal = match &self.power_signal {
             Some(s) => parse("power_signal", s)?,
@@ -269,11 +285,25 @@ impl TwinOptions {
             seed: self.seed,
             ..SensorSettings::default()
         };
+        let family = match family_seed {
+            Some(seed) => {
+                let mut plant = FamilyTable::default()
+                    .draw(&robot.robot, &drive, &twin, &sensor, seed)
+                    .map_err(ctx(""))?;
+                if let Some(e) = self.nominal_error {
+                    plant.twin.nominal_error = e;
+                    plant.draw.nominal_error = e;
+                }
+                Some((seed, plant))
+            }
+            None => None,
+        };
         Ok(Setup {
             drive,
             payload,
             twin,
             sensor,
+            family,
         })
     }
 }

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use numpy::{PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
-use powertwin::dataset::bulk::{BulkSpec, item};
+use powertwin::dataset::bulk::{BulkFamily, BulkSpec, item};
 use powertwin::dataset::generate::{RunSpec, simulate as twin_simulate};
 use powertwin::dataset::{Dataset, Format};
 use powertwin::measurement::Log;
@@ -277,15 +277,16 @@ pub fn simulate<'py>(
         .as_ref()
         .map_or(file.clone(), |o| o.display().to_string());
     let ds = py.detach(|| -> PyResult<Dataset> {
+        let plant = setup.family.as_ref().map(|(_, p)| p);
         let (ds, _) = twin_simulate(&RunSpec {
-            family: None,
-            robot: &robot.robot,
+            family: plant.map(|p| &p.draw),
+            robot: plant.map_or(&robot.robot, |p| &p.robot),
             urdf: robot.urdf.clone(),
-            drive: &setup.drive,
+            drive: plant.map_or(&setup.drive, |p| &p.drive),
             events: &events,
             brakes: &[],
-            twin: setup.twin.clone(),
-            sensor: setup.sensor,
+            twin: plant.map_or(&setup.twin, |p| &p.twin).clone(),
+            sensor: plant.map_or(setup.sensor, |p| p.sensor),
             trajectory: &traj,
             trajectory_description: description,
             trajectory_seed: None,
@@ -332,6 +333,10 @@ pub fn dataset_item<'py>(
         twin: setup.twin.clone(),
         sensor: setup.sensor,
         seed,
+        family: setup.family.as_ref().map(|&(seed, _)| BulkFamily {
+            table: powertwin::twin::family::FamilyTable::default(),
+            seed,
+        }),
     };
     let dir = out.join(format!("item_{j:06}"));
     let summary = py.detach(|| -> PyResult<_> {

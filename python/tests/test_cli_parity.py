@@ -51,6 +51,7 @@ def test_predict_equals_cli(robot, work):
     pred = model.predict(pt.read_dataset(d / "cli_run1"))
     assert pred.energy_J == cli["predicted_J"]
     assert pred.interval_J == cli["interval_95_J"]
+    assert (pred.below_seen_J, pred.unseen_load_J) == (cli["below_seen_J"], cli["unseen_load_J"])
     assert pred.measured_J == cli["measured_J"]
     assert pred.power_rmse_W == cli["power_rmse_W"]
     assert pred.power_W.shape == pred.t_s.shape == pred.measured_W.shape
@@ -105,3 +106,16 @@ def test_excite_set_writes_the_cli_set(robot, tmp_path):
     first = np.loadtxt(tmp_path / "py" / sorted(n for n in cli if n.endswith(".csv"))[0], delimiter=",", skiprows=1)
     assert np.array_equal(design["trajectories"][0]["q_rad"], first[:, 1:1 + robot.dof])
     assert len(design["member_conds"]) == 2 and design["cond_final"] <= design["cond_initial"]
+
+
+def test_dataset_items_of_a_family_equal_the_cli(robot, tmp_path):
+    run_cli("dataset", "--count", 2, "--seed", 3, "--truth", "family:1", "--out", tmp_path / "cli")
+    for j in range(2):
+        pt.dataset_item(robot, j, tmp_path / "py", seed=3, truth="family:1")
+        name = f"item_{j:06d}"
+        assert files(tmp_path / "py" / name) == files(tmp_path / "cli" / name)
+        meta = json.loads((tmp_path / "py" / name / "meta.json").read_text())
+        # Item j runs robot j of family 1, the robot `validate --family N --seed 1` draws j-th.
+        assert meta["family"]["seed"] == 1_000_000 + 10 * j
+    with pytest.raises(ValueError, match="family seed"):
+        pt.dataset_item(robot, 0, tmp_path / "bad", seed=3, truth="family:x")

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use powertwin::dataset::bulk::{BulkSpec, Shard, item, item_duration};
+use powertwin::dataset::bulk::{BulkFamily, BulkSpec, Shard, item, item_duration};
 use powertwin::dataset::schedule::longest_first;
 
 use super::TwinArgs;
@@ -20,7 +20,10 @@ use super::TwinArgs;
 /// `excite`), no payload / the tool / the tool plus a 0.5-4 kg steel cube (at most what the
 /// drive file's rated payload leaves beside the tool), drive friction, rotor inertia and
 /// losses scaled by 0.7-1.3 from the drive file and efficiency 0.83-0.92 (see
-/// docs/guide/bulk-datasets.md).
+/// docs/guide/bulk-datasets.md). With --truth family:SEED, item j instead runs robot j of
+/// that family (the robot validate --family --seed SEED draws j-th, family seed
+/// SEED * 1000000 + 10 j): its own inertias, friction laws, losses, controller and logger,
+/// recorded in its meta.json.
 #[derive(Debug, Args)]
 pub struct DatasetArgs {
     #[command(flatten)]
@@ -53,12 +56,14 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
             powertwin::model::builtin::payload(DEFAULT_TOOL)?
         }
     };
-    if setup.plant.is_some() {
-        anyhow::bail!(
-            "dataset varies the drives of every item itself; for a robot of the family use \
-             simulate --truth family:SEED, or validate --family N"
-        );
-    }
+    let truth = args.twin.truth_args();
+    let family = match truth.family_seed() {
+        Some(seed) => Some(BulkFamily {
+            table: truth.family_table()?,
+            seed,
+        }),
+        None => None,
+    };
     let spec = BulkSpec {
         robot: &setup.robot,
         urdf: setup.urdf.clone(),
@@ -67,6 +72,7 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
         twin: setup.twin.clone(),
         sensor: setup.sensor,
         seed: args.seed,
+        family,
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;

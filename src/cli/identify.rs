@@ -216,13 +216,14 @@ pub struct IdentifyArgs {
 /// The prior of identification: what the URDF and the drive file already say.
 #[derive(Debug, Args)]
 pub struct PriorArgs {
-    /// Drive file whose data-sheet friction and rotor inertia centre the prior [default: the
-    /// built-in drive for the built-in robot, else the URDF's <dynamics> friction].
+    /// Drive file whose data-sheet friction, rotor inertia and copper-loss coefficients centre
+    /// the prior [default: the built-in drive for the built-in robot, else the URDF's
+    /// <dynamics> friction and no copper-loss prior].
     #[arg(long, value_name = "PATH")]
     drive: Option<PathBuf>,
     /// A prior width (one standard deviation), repeatable: mass=0.3 (relative), com=0.02 (m),
-    /// inertia=0.5 (relative to the mean principal moment), friction=0.5 and rotor=0.5
-    /// (relative to the drive file's value). The defaults are those.
+    /// inertia=0.5 (relative to the mean principal moment), friction=0.5, rotor=0.5 and
+    /// copper=0.5 (relative to the drive file's value). The defaults are those.
     #[arg(long, value_name = "KEY=VALUE")]
     prior_width: Vec<String>,
     /// Identify from the data alone, without the prior: a log that leaves directions of the
@@ -250,8 +251,9 @@ impl PriorArgs {
                 "inertia" => &mut w.inertia_rel,
                 "friction" => &mut w.friction_rel,
                 "rotor" => &mut w.rotor_rel,
+                "copper" => &mut w.copper_rel,
                 other => bail!(
-                    "--prior-width {item}: unknown key '{other}' (mass, com, inertia, friction, rotor)"
+                    "--prior-width {item}: unknown key '{other}' (mass, com, inertia, friction, rotor, copper)"
                 ),
             };
             *slot = v;

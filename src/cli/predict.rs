@@ -172,6 +172,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "measured_J": r.measured_j, "error_vs_measured_pct": r.error_pct(),
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
                 "below_seen_J": pred.below_seen_j,
+                "unseen_load_J": pred.unseen_load_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -204,7 +205,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 r.measured_j,
                 r.error_pct(),
                 r.rmse_w(),
-                below_seen(pred)
+                unseen(pred)
             );
         }
         super::emit(&o)?;
@@ -267,6 +268,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "mean_power_W": price.mean_power_w(),
             "power_signal": model.signal.name(),
             "below_seen_J": pred.below_seen_j,
+            "unseen_load_J": pred.unseen_load_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {
@@ -276,21 +278,28 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             pred.interval_j,
             pred.duration_s,
             price.mean_power_w(),
-            below_seen(pred)
+            unseen(pred)
         ))?;
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The note a prediction carries when its power goes below the lowest level the
-/// identification logs show the meter at (empty otherwise).
-fn below_seen(pred: &powertwin::identification::model::Prediction) -> String {
+/// The notes a prediction carries when its power goes below the lowest level the
+/// identification logs show the meter at, or its payload is heavier than they carried (empty
+/// otherwise).
+fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
+    let mut note = String::new();
     if pred.below_seen_j > 0.0 {
-        format!(
+        note += &format!(
             "; {:.2} J of it below the lowest power identification saw the meter at (undetermined, in the interval)",
             pred.below_seen_j
-        )
-    } else {
-        String::new()
+        );
     }
+    if pred.unseen_load_j > 0.0 {
+        note += &format!(
+            "; a payload heavier than identification carried moves {:.2} J more through the joints (its losses undetermined, in the interval)",
+            pred.unseen_load_j
+        );
+    }
+    note
 }

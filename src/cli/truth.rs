@@ -110,6 +110,14 @@ impl TruthArgs {
         })
     }
 
+    /// The family seed of `--truth family:SEED`; `None` for another truth.
+    pub fn family_seed(&self) -> Option<u64> {
+        match self.truth {
+            Truth::Family(seed) => Some(seed),
+            _ => None,
+        }
+    }
+
     /// The family table: the file's, or the built-in one.
     pub fn family_table(&self) -> Result<FamilyTable> {
         match &self.family_table {

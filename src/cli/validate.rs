@@ -27,7 +27,8 @@ const HELDOUT_SEED: u64 = 90_210;
 ///
 /// With --family N instead of --model: N robots we did not build, drawn around the URDF and
 /// drive file (see --truth family:SEED), each identified the way a user would (the
-/// identification set run on it, cross-validated; the files are all identification sees) and
+/// identification set run on it, cross-validated, with the files' prior as identify's
+/// default; the files are all identification sees) and
 /// judged on --count held-out motions from each of two seeds; prints each robot and the
 /// pooled figures, and with --out writes family.json.
 #[derive(Debug, Args)]
@@ -225,6 +226,7 @@ fn family(args: &ValidateArgs, setup: &Setup) -> Result<ExitCode> {
         idset: IdSetOptions::irb1200(false),
         heldout: HeldoutOptions::for_robot(&setup.robot, count, max_payload)?,
         heldout_seeds: FAMILY_HELDOUT_SEEDS,
+        prior: Some(powertwin::identification::prior::PriorWidths::default()),
     };
     let bars = Bars::new();
     let rig = setup.rig();

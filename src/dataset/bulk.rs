@@ -14,7 +14,11 @@
 //!   file; efficiency uniform in [0.83, 0.92] (the paper's range).
 //! - the sensor-noise seed.
 //!
-//! The physics, controller, motor model and noise levels are the caller's.
+//! The physics, controller, motor model and noise levels are the caller's. With a family of
+//! truths ([`BulkSpec::family`]) item `j` instead runs robot `j` of the family
+//! ([`family_seed`]`(seed, j, 0)`, the robot `validate --family` draws first for that
+//! index): its own inertias, friction laws, losses, controller and logger, recorded in its
+//! `meta.json`; the trajectory and payload draws are the same.
 
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -34,6 +38,7 @@ use crate::trajectory::limits::default_accel_limits;
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
+use crate::twin::family::{FamilyTable, family_seed};
 use crate::twin::sensor::SensorSettings;
 use crate::twin::{RunReport, TwinConfig};
 
@@ -93,6 +98,17 @@ pub struct BulkSpec<'a> {
     /// Logger settings (the noise seed is drawn per item).
     pub sensor: SensorSettings,
     /// Global seed.
+    pub seed: u64,
+    /// Run each item on a robot of this family instead of scaling the drives.
+    pub family: Option<BulkFamily>,
+}
+
+/// The family of truths a set's items are drawn from.
+#[derive(Debug, Clone)]
+pub struct BulkFamily {
+    /// Sizes of the differences.
+    pub table: FamilyTable,
+    /// Family seed: item `j` runs robot [`family_seed`]`(seed, j, 0)`.
     pub seed: u64,
 }
 
@@ -155,7 +171,65 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
     let mut rng = ChaCha8Rng::seed_from_u64(item_seed);
     let robot = spec.robot;
     let (traj, description) = draw_trajectory(robot, &mut rng)?;
-    let payload = match rng.random_range(0..3) {
+    let payload = draw_payload(spec, &mut rng)?;
+    let events: Vec<PayloadEvent> = payload
+        .map(|p| PayloadEvent {
+            t_s: 0.0,
+            payload: Some(p),
+        })
+        .into_iter()
+        .collect();
+    let description = json!({"item": index, "global_seed": spec.seed, "trajectory": description});
+    if let Some(family) = &spec.family {
+        let plant = family.table.draw(
+            robot,
+            spec.drive,
+            &spec.twin,
+            &spec.sensor,
+            family_seed(family.seed, index, 0),
+        )?;
+        return simulate(&RunSpec {
+            robot: &plant.robot,
+            urdf: spec.urdf.clone(),
+            drive: &plant.drive,
+            events: &events,
+            brakes: &[],
+            twin: plant.twin.clone(),
+            sensor: SensorSettings {
+                seed: rng.random(),
+                ..plant.sensor
+            },
+            trajectory: traj.as_ref(),
+            trajectory_description: description,
+            trajectory_seed: Some(item_seed),
+            family: Some(&plant.draw),
+        });
+    }
+    let drive = scaled_drive(spec, &mut rng)?;
+    let sensor = SensorSettings {
+        seed: rng.random(),
+        ..spec.sensor
+    };
+    simulate(&RunSpec {
+        robot,
+        urdf: spec.urdf.clone(),
+        drive: &drive,
+        events: &events,
+        brakes: &[],
+        twin: spec.twin.clone(),
+        sensor,
+        trajectory: traj.as_ref(),
+        trajectory_description: description,
+        trajectory_seed: Some(item_seed),
+        family: None,
+    })
+}
+
+/// Draw an item's payload (the next draws of its RNG): none, the tool, or the tool and a
+/// steel cube of 0.5-4 kg at the tool centre point (at most what the rated payload leaves
+/// beside the tool; the tool alone where it leaves under 0.5 kg), 1/3 each.
+fn draw_payload(spec: &BulkSpec, rng: &mut ChaCha8Rng) -> Result<Option<Payload>> {
+    Ok(match rng.random_range(0..3) {
         0 => None,
         1 => Some(spec.tool.clone()),
         _ => {
@@ -178,7 +252,12 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
                 Some(spec.tool.combined(&cube))
             }
         }
-    };
+    })
+}
+
+/// The base drive file with friction, rotor inertia and losses scaled by 0.7-1.3 and the
+/// efficiency drawn in 0.83-0.92 (the next draws of an item's RNG).
+fn scaled_drive(spec: &BulkSpec, rng: &mut ChaCha8Rng) -> Result<Drive> {
     let joints: Vec<JointDrive> = spec
         .drive
         .joints()
@@ -200,29 +279,5 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
             d
         })
         .collect();
-    let drive = Drive::new(robot, joints)?;
-    let events: Vec<PayloadEvent> = payload
-        .map(|p| PayloadEvent {
-            t_s: 0.0,
-            payload: Some(p),
-        })
-        .into_iter()
-        .collect();
-    let sensor = SensorSettings {
-        seed: rng.random(),
-        ..spec.sensor
-    };
-    simulate(&RunSpec {
-        robot,
-        urdf: spec.urdf.clone(),
-        drive: &drive,
-        events: &events,
-        brakes: &[],
-        twin: spec.twin.clone(),
-        sensor,
-        trajectory: traj.as_ref(),
-        trajectory_description: json!({"item": index, "global_seed": spec.seed, "trajectory": description}),
-        trajectory_seed: Some(item_seed),
-        family: None,
-    })
+    Drive::new(spec.robot, joints)
 }

@@ -14,6 +14,7 @@ use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace, sign};
 use crate::error::{Error, Result};
+use crate::identification::tuning;
 use crate::measurement::PowerSignal;
 use crate::model::Robot;
 use crate::model::payload::PayloadEvent;
@@ -116,6 +117,18 @@ pub struct PowerModel {
         skip_serializing_if = "Option::is_none"
     )]
     pub lowest_seen: Option<f64>,
+    /// The heaviest payload the identification logs carried (tool and load at the flange),
+    /// kg. A prediction with a heavier payload adds
+    /// [`crate::identification::tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy the excess
+    /// moves through the joints to its standard deviation: losses that grow with the
+    /// transmitted torque (gear friction) cannot be told from logs that never carried it
+    /// (`None`: no such term, an older file).
+    #[serde(
+        default,
+        rename = "payload_seen_kg",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub payload_seen: Option<f64>,
     /// Lag of the logged power behind the logged joints found in the identification logs, s
     /// (positive: the power is late; a meter on its own clock or with a filter). Predicting
     /// the power at a log's samples shifts by it; energies of motions do not depend on it.
@@ -148,6 +161,7 @@ impl PowerModel {
             structure_rel: 0.0,
             structure_active: 0.0,
             lowest_seen: None,
+            payload_seen: None,
             power_lag_s: 0.0,
         })
     }
@@ -224,6 +238,13 @@ impl PowerModel {
             && !v.is_finite()
         {
             return Err(bad(format!("lowest_seen_W = {v} must be finite")));
+        }
+        if let Some(v) = self.payload_seen
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(bad(format!(
+                "payload_seen_kg = {v} must be finite and >= 0"
+            )));
         }
         Ok(())
     }
@@ -426,13 +447,14 @@ impl PowerModel {
         let base = (!events.is_empty())
             .then(|| self.base_params(robot))
             .transpose()?;
-        let mut models = vec![(f64::NEG_INFINITY, self.clone())];
+        let mut models = vec![(f64::NEG_INFINITY, self.clone(), 0.0)];
         for e in events {
             let model = match (&e.payload, &base) {
                 (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
                 _ => self.clone(),
             };
-            models.push((e.t_s, model));
+            let mass = e.payload.as_ref().map_or(0.0, |p| p.inertia.mass);
+            models.push((e.t_s, model, mass));
         }
         let n = robot.dof();
         let mut ws = Workspace::new(robot);
@@ -441,11 +463,11 @@ impl PowerModel {
         let (mut p, mut signs, mut unsure) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let coulomb = self.coulomb_params();
         for &t in t {
-            let model = models
+            let (model, payload_kg) = models
                 .iter()
                 .rev()
-                .find(|(from, _)| *from <= t)
-                .map_or(self, |(_, m)| m);
+                .find(|(from, _, _)| *from <= t)
+                .map_or((self, 0.0), |(_, m, kg)| (m, *kg));
             traj.sample(t, &mut q, &mut dq, &mut ddq);
             traj.coulomb_signs(t, &dq, &mut signs);
             regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
@@ -468,6 +490,7 @@ impl PowerModel {
                 dq: &dq,
                 unsure: &unsure,
                 model,
+                payload_kg,
             });
         }
         Ok(())
@@ -479,7 +502,9 @@ impl PowerModel {
     /// parameters) plus the cross-validated structure error, `structure_sigma_W` times the
     /// motion's duration and `structure_rel` times its active energy `integral |P - P0| dt`
     /// (at least `structure_active_W` times the duration), plus half the energy a clipped
-    /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined).
+    /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
+    /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
+    /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`).
     /// `dt`: integration step, s.
     pub fn predict(
         &self,
@@ -502,6 +527,7 @@ impl PowerModel {
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
+        let mut unseen_load = 0.0;
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let standby: f64 = self.constant.iter().sum();
         let mut g = vec![0.0; np];
@@ -518,6 +544,7 @@ impl PowerModel {
             if let Some(low) = lowest_seen {
                 unseen += weight * (low - signal).max(0.0);
             }
+            unseen_load += weight * self.unseen_load_power(e);
             if clipped && total < 0.0 {
                 return;
             }
@@ -549,7 +576,8 @@ impl PowerModel {
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
-            + (0.5 * unseen).powi(2))
+            + (0.5 * unseen).powi(2)
+            + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2))
         .sqrt();
         Ok(Prediction {
             energy_j: if clipped { grid } else { motor },
@@ -558,7 +586,26 @@ impl PowerModel {
             grid_j: grid,
             duration_s: duration,
             below_seen_j: unseen,
+            unseen_load_j: unseen_load,
         })
+    }
+
+    /// Mechanical power (W) the payload attached at state `e` moves through the joints,
+    /// `sum_i |dtau_i dq_i|` with `dtau` its torque, times the fraction of its mass beyond the
+    /// heaviest load the identification logs carried (`payload_seen_kg`); 0 within it.
+    fn unseen_load_power(&self, e: &StateEval) -> f64 {
+        match self.payload_seen {
+            Some(seen) if e.payload_kg > seen => {
+                let beyond = 1.0 - seen / e.payload_kg;
+                (0..e.dq.len())
+                    .map(|i| {
+                        let added = e.model.torque(e.w, i) - self.torque(e.w, i);
+                        beyond * (added * e.dq[i]).abs()
+                    })
+                    .sum()
+            }
+            _ => 0.0,
+        }
     }
 
     /// Each joint's regressor column of Coulomb friction and the index of its parameter in
@@ -596,6 +643,8 @@ struct StateEval<'a> {
     dq: &'a [f64],
     /// The model in force (with the payload then attached).
     model: &'a PowerModel,
+    /// Mass of the payload then attached, kg (0 without one).
+    payload_kg: f64,
 }
 
 /// An energy prediction with its uncertainty.
@@ -622,6 +671,12 @@ pub struct Prediction {
     /// reads there is undetermined; half of it is in the interval's standard deviation.
     #[serde(rename = "below_seen_J")]
     pub below_seen_j: f64,
+    /// Mechanical energy the payload moves through the joints beyond the heaviest load the
+    /// identification logs carried (`integral sum_i |dtau_i dq_i| dt` of the payload's torque,
+    /// times the fraction of its mass beyond that load), J; `UNSEEN_LOAD_LOSS` of it is in the
+    /// interval's standard deviation.
+    #[serde(rename = "unseen_load_J")]
+    pub unseen_load_j: f64,
 }
 
 /// Predicted energy of a motion.

@@ -15,6 +15,11 @@
 //! The drive terms (Coulomb and viscous friction, rotor inertia) are independent with a width
 //! relative to the drive file's value; where the file gives none (zero), a width from the
 //! joint's rating (see [`PriorWidths`]).
+//!
+//! The drive file's copper-loss coefficients are a prior too ([`Prior::copper`]), independent
+//! of the rest, where the file gives one: a joint whose logged torques stay small leaves its
+//! coefficient at the data sheet's value, not at zero, so a payload heavier than the logs
+//! carried still pays its copper loss.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -28,7 +33,8 @@ use crate::model::drive::Drive;
 
 /// Widths (one standard deviation) of the prior. The defaults are what CAD and data sheets
 /// usually miss by: a link's mass by 30 %, its centre of mass by 2 cm, its inertia by 50 %,
-/// a data-sheet friction or rotor inertia by 50 %.
+/// a data-sheet friction or rotor inertia by 50 %, a data-sheet copper-loss coefficient by
+/// 50 % (a winding's resistance alone rises by 30 % from 20 to 100 degC).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PriorWidths {
@@ -42,6 +48,14 @@ pub struct PriorWidths {
     pub friction_rel: f64,
     /// Rotor inertia, relative to the drive file's value.
     pub rotor_rel: f64,
+    /// Copper-loss coefficient, relative to the drive file's value.
+    #[serde(default = "default_copper_rel")]
+    pub copper_rel: f64,
+}
+
+/// [`PriorWidths::copper_rel`] by default.
+fn default_copper_rel() -> f64 {
+    0.5
 }
 
 impl Default for PriorWidths {
@@ -52,6 +66,7 @@ impl Default for PriorWidths {
             inertia_rel: 0.5,
             friction_rel: 0.5,
             rotor_rel: 0.5,
+            copper_rel: default_copper_rel(),
         }
     }
 }
@@ -80,6 +95,20 @@ pub struct Prior {
     /// A root of the precision, `R = L^-1` with `covariance = L L^T` (lower triangular):
     /// `R^T R = covariance^-1`.
     pub root_precision: DMatrix<f64>,
+    /// Per joint, the drive file's copper-loss coefficient, W/(N m)^2, with its width
+    /// (independent of the base parameters); `None` where the file gives none (zero, or no
+    /// drive file): the data alone then decide it, held at zero where they cannot tell it
+    /// from zero.
+    pub copper: Vec<Option<Normal>>,
+}
+
+/// A normal distribution of one value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normal {
+    /// Mean.
+    pub mean: f64,
+    /// Standard deviation (> 0).
+    pub std: f64,
 }
 
 impl Prior {
@@ -128,10 +157,20 @@ impl Prior {
             .l()
             .solve_lower_triangular(&DMatrix::identity(base.rank(), base.rank()))
             .ok_or_else(|| Error::Numerical("prior covariance root not invertible".into()))?;
+        let copper = (0..robot.dof())
+            .map(|j| {
+                let c = drive.map_or(0.0, |d| d.joints()[j].copper_loss);
+                (c > 0.0).then_some(Normal {
+                    mean: c,
+                    std: widths.copper_rel * c,
+                })
+            })
+            .collect();
         Ok(Prior {
             mean: base.base_values(&phi)?,
             covariance,
             root_precision: l_inv,
+            copper,
         })
     }
 
@@ -302,6 +341,7 @@ fn check_widths(w: &PriorWidths) -> Result<()> {
         ("inertia", w.inertia_rel),
         ("friction", w.friction_rel),
         ("rotor", w.rotor_rel),
+        ("copper", w.copper_rel),
     ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(Error::InvalidInput(format!(
@@ -513,10 +553,26 @@ mod tests {
         let eye = &rtr * &prior.covariance;
         let err = (eye - DMatrix::identity(base.rank(), base.rank())).amax();
         assert!(err < 1e-6, "R^T R covariance - 1: {err}");
-        let bad = PriorWidths {
-            com_m: 0.0,
-            ..PriorWidths::default()
-        };
-        assert!(Prior::new(&robot, Some(&drive), &base, &bad).is_err());
+        // The copper-loss coefficients: the drive file's, with the relative width.
+        for (c, j) in prior.copper.iter().zip(drive.joints()) {
+            let c = c.expect("the built-in drive gives every copper coefficient");
+            assert_eq!(c.mean, j.copper_loss);
+            assert!((c.std - 0.5 * j.copper_loss).abs() < 1e-15);
+        }
+        // Without a drive file, no copper-loss prior.
+        let bare = Prior::new(&robot, None, &base, &PriorWidths::default()).unwrap();
+        assert!(bare.copper.iter().all(Option::is_none));
+        for bad in [
+            PriorWidths {
+                com_m: 0.0,
+                ..PriorWidths::default()
+            },
+            PriorWidths {
+                copper_rel: f64::NAN,
+                ..PriorWidths::default()
+            },
+        ] {
+            assert!(Prior::new(&robot, Some(&drive), &base, &bad).is_err());
+        }
     }
 }

@@ -209,6 +209,14 @@ pub struct Plant {
     pub draw: Draw,
 }
 
+/// The family seed of robot `robot`, attempt `attempt` (0, or a redraw), of the family
+/// `seed`: what `--truth family:SEED` takes to run that robot alone.
+pub fn family_seed(seed: u64, robot: usize, attempt: u64) -> u64 {
+    seed.wrapping_mul(1_000_000)
+        .wrapping_add(robot as u64 * 10)
+        .wrapping_add(attempt)
+}
+
 /// A uniform draw in `[lo, hi]` (`lo` when the range is empty).
 fn uniform(rng: &mut ChaCha8Rng, [lo, hi]: [f64; 2]) -> f64 {
     if hi > lo {

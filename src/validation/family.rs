@@ -2,8 +2,8 @@
 //!
 //! Each robot is drawn from the family ([`crate::twin::family`]) around the user's URDF and
 //! drive file, identified the way a user would (the identification set run on it, its logs
-//! identified with the estimator chosen by cross-validation; the nominal files are all the
-//! identification sees) and judged on held-out motions from several seeds of its own. The
+//! identified with the estimator chosen by cross-validation and the nominal files' prior, as
+//! `identify` does by default; the nominal files are all the identification sees) and judged on held-out motions from several seeds of its own. The
 //! family's truth only scores. A drawn robot whose torque saturates in any run cannot be
 //! tracked: it is redrawn, and the redraw is recorded.
 
@@ -12,7 +12,9 @@ use serde::Serialize;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::identification::prior::{Prior, PriorWidths};
 use crate::model::Robot;
+pub use crate::twin::family::family_seed;
 use crate::twin::family::{FamilyTable, Plant};
 use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSetOptions};
@@ -37,6 +39,9 @@ pub struct FamilyOptions {
     pub heldout: HeldoutOptions,
     /// Held-out motion sets per robot, seeds `heldout.seed`, `heldout.seed + 1`, ...
     pub heldout_seeds: usize,
+    /// Identify with the prior of the user's files (URDF and drive file) at these widths, as
+    /// `identify` does by default; `None`: from the data alone.
+    pub prior: Option<PriorWidths>,
 }
 
 impl FamilyOptions {
@@ -52,16 +57,9 @@ impl FamilyOptions {
             idset: IdSetOptions::irb1200(true),
             heldout: HeldoutOptions::irb1200(6),
             heldout_seeds: 2,
+            prior: Some(PriorWidths::default()),
         }
     }
-}
-
-/// The family seed of robot `robot`, attempt `attempt` (0, or a redraw), of the family
-/// `seed`: what `--truth family:SEED` takes to run that robot alone.
-pub fn family_seed(seed: u64, robot: usize, attempt: u64) -> u64 {
-    seed.wrapping_mul(1_000_000)
-        .wrapping_add(robot as u64 * 10)
-        .wrapping_add(attempt)
 }
 
 /// A drawn robot that could not be used, and why.
@@ -244,7 +242,12 @@ fn benchmark(
         plant: Some(plant),
         ..rig.clone()
     };
-    let set = idset::run(&family_rig, &opts.idset, progress)?;
+    // The prior comes from the user's files (`rig.robot`, `rig.drive`), never the plant's.
+    let mut idset_opts = opts.idset.clone();
+    if let Some(widths) = &opts.prior {
+        idset_opts.fit.prior = Some(Prior::for_robot(rig.robot, Some(rig.drive), widths)?);
+    }
+    let set = idset::run(&family_rig, &idset_opts, progress)?;
     if let Some(why) = set
         .datasets
         .iter()

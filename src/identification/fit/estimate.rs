@@ -4,11 +4,11 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::nonlinear::{levenberg_marquardt, lm_statistics};
+use super::nonlinear::{levenberg_marquardt, lm_statistics, residual_variance};
 use super::weighting::variance_weights;
 use super::{Estimator, Fit, Param, Weighting, covariance::covariance, samples::Samples};
 use crate::error::Result;
-use crate::identification::lsq::{Estimate, solve, solve_with_prior};
+use crate::identification::lsq::{ColumnPrior, Estimate, solve, solve_with_prior};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning;
 
@@ -88,16 +88,18 @@ fn fit_inner(
     if estimator != Estimator::Pmsm || !full {
         return Ok(f);
     }
-    // Copper coefficients the data cannot tell from zero (on the bound, or within
-    // tuning::COPPER_SIGNIFICANCE standard deviations of it) are held at zero and the rest
-    // refitted: left free, they trade against the standby power and each other along
+    // Copper coefficients without a prior that the data cannot tell from zero (on the bound,
+    // or within tuning::COPPER_SIGNIFICANCE standard deviations of it) are held at zero and
+    // the rest refitted: left free, they trade against the standby power and each other along
     // directions the data barely see, and predict other motions far off
-    // (docs/experiments.md#copper-coefficients-held-at-zero; tests/consistent.rs).
+    // (docs/experiments.md#copper-coefficients-held-at-zero; tests/consistent.rs). One with
+    // the drive file's value as a prior stays free: the prior holds it where the data do not.
     let weak: Vec<bool> = (0..s.n)
         .map(|i| {
             let k = s.nb + i;
-            f.estimate.values[k]
-                <= tuning::COPPER_SIGNIFICANCE * f.covariance[(k, k)].max(0.0).sqrt()
+            !s.copper_has_prior(i)
+                && f.estimate.values[k]
+                    <= tuning::COPPER_SIGNIFICANCE * f.covariance[(k, k)].max(0.0).sqrt()
         })
         .collect();
     if !weak.iter().any(|&w| w) {
@@ -241,7 +243,7 @@ fn fit_weighted(
                     z[k] = if free[k] { start[k] } else { 0.0 };
                 }
             }
-            levenberg_marquardt(s, rows, weights, Some(&free), prior, &mut z)?;
+            let prior = posterior_mode(s, rows, weights, &free, prior, &mut z)?;
             if statistics {
                 lm_statistics(template, s, rows, weights, Some(&free), prior, &z)?
             } else {
@@ -290,6 +292,30 @@ fn fit_weighted(
         covariance,
         layout,
     })
+}
+
+/// Levenberg-Marquardt of the PMSM fit from `z`, in place, moving the parameters `free`
+/// marks; with a `prior`, refitted with the power model's own residual variance, which is
+/// returned with the prior. The linear solution's variance (the `prior`'s on entry) holds the
+/// copper loss it leaves out, tens of times the power model's on the family of truths, so it
+/// weighs the prior that many times too heavily
+/// (docs/experiments.md#the-drive-files-copper-as-a-prior).
+fn posterior_mode<'a>(
+    s: &Samples,
+    rows: &[usize],
+    weights: &[f64],
+    free: &[bool],
+    prior: Option<(&'a ColumnPrior, f64)>,
+    z: &mut DVector<f64>,
+) -> Result<Option<(&'a ColumnPrior, f64)>> {
+    levenberg_marquardt(s, rows, weights, Some(free), prior, z)?;
+    let Some((pr, _)) = prior else {
+        return Ok(None);
+    };
+    let moved = free.iter().filter(|f| **f).count();
+    let s2 = residual_variance(s, rows, weights, z, moved);
+    levenberg_marquardt(s, rows, weights, Some(free), Some((pr, s2)), z)?;
+    Ok(Some((pr, s2)))
 }
 
 impl Fit {

@@ -118,6 +118,25 @@ pub(super) fn levenberg_marquardt(
     Ok(())
 }
 
+/// The weighted residual variance of the samples `rows` (weights `weights`) at `z` with
+/// `moved` parameters fitted: `sum w r^2 / (rows - moved)`, the noise variance that weighs a
+/// prior against them.
+pub(super) fn residual_variance(
+    s: &Samples,
+    rows: &[usize],
+    weights: &[f64],
+    z: &DVector<f64>,
+    moved: usize,
+) -> f64 {
+    let r2: f64 = rows
+        .par_iter()
+        .zip(weights)
+        .with_min_len(PARALLEL_SAMPLES)
+        .map(|(&m, w)| w * (s.power(m, z, None) - s.y[m]).powi(2))
+        .sum();
+    r2 / rows.len().saturating_sub(moved).max(1) as f64
+}
+
 /// The prior's rows in a fit: residuals `root z - target`.
 struct PriorRows {
     /// `s root`.

@@ -100,6 +100,13 @@ pub fn identify_logs(
     }
     selection.fit.model.power_lag_s = lag;
     selection.fit.model.lowest_seen = samples.lowest_seen();
+    selection.fit.model.payload_seen = Some(
+        logs.iter()
+            .flat_map(|l| &l.payloads)
+            .filter_map(|e| e.payload.as_ref())
+            .map(|p| p.inertia.mass)
+            .fold(0.0, f64::max),
+    );
     Ok(selection)
 }
 

@@ -2,7 +2,7 @@
 
 use nalgebra::DVector;
 
-use super::nonlinear::levenberg_marquardt;
+use super::nonlinear::{levenberg_marquardt, residual_variance};
 use super::weighting::variance_weights;
 use super::{Estimator, Fit, Weighting, samples::Samples};
 use crate::error::Result;
@@ -12,7 +12,7 @@ use crate::identification::model::PowerModel;
 /// physically consistent ones) held, from the values of `fitted` (the fit `model` came
 /// from): the copper coefficients `fitted` estimated (for [`Estimator::Pmsm`], kept >= 0;
 /// those it held at zero stay there) and the standby power, by Levenberg–Marquardt with the
-/// samples weighted by `weighting`. The projection moves the loss terms only along their
+/// samples weighted by `weighting` (and the copper coefficients' prior, if any). The projection moves the loss terms only along their
 /// correlation with the base parameters; the data decide them once those are fixed. The
 /// model predicts the arm's power, so its losses are refitted on the arm's power alone
 /// (docs/experiments.md#losses-refitted-on-the-arms-power).
@@ -44,7 +44,13 @@ pub(super) fn refit_losses(
         Weighting::None => vec![1.0; rows.len()],
         w => variance_weights(s, &rows, &z, w),
     };
-    levenberg_marquardt(s, &rows, &weights, Some(&free), None, &mut z)?;
+    // The copper coefficients' prior, if any, weighed against the rows' residual variance at
+    // the start (the base parameters' rows are constant here: those are held).
+    let prior = s.z_prior();
+    let moved = free.iter().filter(|f| **f).count();
+    let s2 = residual_variance(s, &rows, &weights, &z, moved);
+    let prior = prior.as_ref().map(|p| (p, s2));
+    levenberg_marquardt(s, &rows, &weights, Some(&free), prior, &mut z)?;
     model.copper.copy_from_slice(z.rows(nb, n).as_slice());
     model.constant.fill(0.0);
     model.constant[0] = z[np - 1];

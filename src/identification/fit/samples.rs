@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::identification::data::{PERIOD_NODES, Prepared};
 use crate::identification::lsq::ColumnPrior;
 use crate::identification::model::PowerModel;
-use crate::identification::prior::Prior;
+use crate::identification::prior::{Normal, Prior};
 use crate::model::Robot;
 
 /// A cross-validation piece: one time block of one log.
@@ -271,31 +271,47 @@ impl Samples {
     /// (the data decide the directions they determine, the prior the rest). Errors: a prior
     /// of another base-parameter count.
     pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
-        if prior.mean.len() != self.nb {
+        if prior.mean.len() != self.nb || prior.copper.len() != self.n {
             return Err(Error::InvalidInput(format!(
-                "prior of {} base parameters for a model of {}",
+                "prior of {} base parameters and {} joints for a model of {} and {}",
                 prior.mean.len(),
-                self.nb
+                prior.copper.len(),
+                self.nb,
+                self.n
             )));
         }
         self.prior = Some(prior);
         Ok(self)
     }
 
-    /// The prior of the parameters `z` (zero columns for those without one), if any.
+    /// The prior of the parameters `z` (zero columns for those without one), if any: the
+    /// base parameters' rows, then a row per copper-loss coefficient with a prior.
     pub(super) fn z_prior(&self) -> Option<ColumnPrior> {
         let prior = self.prior.as_ref()?;
         let np = self.params();
-        Some(ColumnPrior {
-            root: DMatrix::from_fn(self.nb, np, |r, c| {
-                if c < self.nb {
-                    prior.root_precision[(r, c)]
-                } else {
-                    0.0
-                }
-            }),
-            mean: DVector::from_fn(np, |c, _| if c < self.nb { prior.mean[c] } else { 0.0 }),
-        })
+        let copper: Vec<(usize, Normal)> = prior
+            .copper
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| c.map(|c| (i, c)))
+            .collect();
+        let mut root = DMatrix::zeros(self.nb + copper.len(), np);
+        root.view_mut((0, 0), (self.nb, self.nb))
+            .copy_from(&prior.root_precision);
+        let mut mean = DVector::zeros(np);
+        mean.rows_mut(0, self.nb).copy_from_slice(&prior.mean);
+        for (r, &(i, c)) in copper.iter().enumerate() {
+            root[(self.nb + r, self.nb + i)] = 1.0 / c.std;
+            mean[self.nb + i] = c.mean;
+        }
+        Some(ColumnPrior { root, mean })
+    }
+
+    /// Whether joint `i`'s copper-loss coefficient has a prior.
+    pub(super) fn copper_has_prior(&self, i: usize) -> bool {
+        self.prior
+            .as_ref()
+            .is_some_and(|p| p.copper.get(i).is_some_and(|c| c.is_some()))
     }
 
     /// Number of observations.
