@@ -361,12 +361,19 @@ fn identify_reports_what_the_data_determined() {
         "{err}"
     );
     assert_eq!(report["model_path"].as_str(), Some(s(&model).as_str()));
+    // The log carried no payload: the model says a heavier one's losses are undetermined.
+    assert_eq!(report["payload_seen_kg"].as_f64(), Some(0.0));
+    assert!(
+        err.contains("heaviest payload the logs carried: 0.00 kg"),
+        "{err}"
+    );
     let written: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(written["determination"]["directions"], d["directions"]);
     for (bad, says) in [
         (vec!["--prior-width", "mass=-1"], "must be finite and > 0"),
         (vec!["--prior-width", "colour=1"], "unknown key 'colour'"),
+        (vec!["--prior-width", "copper=0"], "must be finite and > 0"),
         (vec!["--prior-width", "mass"], "expected KEY=VALUE"),
         (
             vec!["--method", "energy", "--no-prior"],

@@ -672,6 +672,14 @@ fn write_and_report(
     if let Some(low) = model.lowest_seen {
         report_lowest_seen(low, estimates.last().map_or(0.0, |e| e.residual_rms));
     }
+    if let Some(kg) = model.payload_seen {
+        eprintln!(
+            "heaviest payload the logs carried: {kg:.2} kg; losses that grow with the torque of \
+             a heavier one are undetermined: predictions' intervals hold {} % of the energy its \
+             excess moves through the joints (to determine them: runs carrying it)",
+            100.0 * powertwin::identification::tuning::UNSEEN_LOAD_LOSS
+        );
+    }
     if args.json {
         let report = json!({
             "model_path": args.out,
@@ -682,6 +690,7 @@ fn write_and_report(
             "physically_consistent": consistency.consistent,
             "determination": determination,
             "lowest_seen_W": model.lowest_seen,
+            "payload_seen_kg": model.payload_seen,
             "holdout": held_out,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
