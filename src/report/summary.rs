@@ -197,8 +197,9 @@ pub(crate) fn family(w: &mut String, r: &Value) {
         w,
         "{} robots drawn from the family of truths (family seed {}; docs/design/family.md): \
          inertias off the URDF, their own friction laws, losses, cabinet load, controller and \
-         logger. Each is identified from its own identification set (the files are all \
-         identification sees) and judged on {} sets of held-out motions.\n",
+         logger. Each is identified from its own identification set with the prior of the \
+         files, as `identify` does (the files are all identification sees), and judged on {} \
+         sets of held-out motions.\n",
         robots.len(),
         fixed(num(r, "/family/seed"), 0),
         fixed(num(r, "/family/heldout_seeds"), 0),

@@ -3,9 +3,10 @@
 //! Each robot is drawn from the family ([`crate::twin::family`]) around the user's URDF and
 //! drive file, identified the way a user would (the identification set run on it, its logs
 //! identified with the estimator chosen by cross-validation and the nominal files' prior, as
-//! `identify` does by default; the nominal files are all the identification sees) and judged on held-out motions from several seeds of its own. The
-//! family's truth only scores. A drawn robot whose torque saturates in any run cannot be
-//! tracked: it is redrawn, and the redraw is recorded.
+//! `identify` does by default; the nominal files are all the identification sees) and judged
+//! on held-out motions from several seeds of its own. The family's truth only scores. A
+//! drawn robot whose torque saturates in any run cannot be tracked: it is redrawn, and the
+//! redraw is recorded.
 
 use rayon::prelude::*;
 use serde::Serialize;
