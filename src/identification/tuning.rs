@@ -101,7 +101,9 @@ pub struct MoveZ {
 /// The local slope's size in standard deviations below which the spline route's move weights
 /// take a joint as not seen to move (encoder noise alone stays below 2 in 95 % of windows) and
 /// above which as moving. Why (2, 4): chosen on the held-out benchmark over the smooth
-/// `erf(z / sqrt 2)` weight (docs/experiments.md#route-move-weights).
+/// `erf(z / sqrt 2)` weight (docs/experiments.md#route-move-weights); on the family of truths
+/// (1.5, 3) and (3, 6) moved no pooled figure by more than 0.01
+/// (docs/experiments.md#the-routes-move-and-edge-thresholds-across-the-family).
 pub const MOVE_Z: MoveZ = MoveZ {
     still: 2.0,
     moving: 4.0,
@@ -111,7 +113,8 @@ pub const MOVE_Z: MoveZ = MoveZ {
 /// direction) at which a rest's edge sample counts as already moved off the rest toward the
 /// motion next to it. Why 6: seven standard deviations of one joint pass for rest; on the
 /// held-out benchmark 5 moved an edge sample that had not moved and 4 moved more
-/// (docs/experiments.md#rest-edges).
+/// (docs/experiments.md#rest-edges); on the family of truths 5 and 7 moved no pooled figure
+/// by more than 0.01 (docs/experiments.md#the-routes-move-and-edge-thresholds-across-the-family).
 pub const EDGE_Z: f64 = 6.0;
 
 /// Noise-normalised shift at which a rest's edge sample counts as moved when the `(t - t0)^3`
