@@ -106,7 +106,8 @@ def twin_options(
     noise: Optional[str] = None,
     power_averaging: bool = False,
 ) -> dict:
-    """The twin settings of a run, with the CLI's defaults (`--truth`, `--noise-seed`,
+    """The twin settings of a run, with the CLI's defaults (`--truth`: "realistic", "exact"
+    or "family:SEED" (a robot of the family of truths, the built-in table), `--noise-seed`,
     `--nominal-error`, `--power-signal`, `--dt` (s), `--substeps`, `--motor`,
     `--sample-rate` (Hz), `--noise` (a TOML path or "none"), `--power-averaging`); `substeps`
     None: the library's default, as the CLI's."""
@@ -399,7 +400,7 @@ def identify(
     consistent, the prior from the URDF and the robot's drive file. `runs`: Logs, or Runs
     with their known payloads. `min_speed` rad/s (default 0.05), `fit_rate` Hz, `weighting`
     "none" | "per-log" | "power-level", `prior_widths` {mass, com (m), inertia, friction,
-    rotor}: the CLI's options. (The CLI's held-out check, `--holdout`, is not run: it does not
+    rotor, copper}: the CLI's options. (The CLI's held-out check, `--holdout`, is not run: it does not
     change the model.)"""
     logs = []
     for k, r in enumerate(runs):
