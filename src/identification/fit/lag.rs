@@ -83,6 +83,7 @@ pub(super) fn find_lag(
                 (Err(e), _) => return Err(e),
             }
         }
+        // `with_prior` is set only when there is a prior.
         match &opts.prior {
             Some(prior) => fitted(&samples.with_prior(prior.clone())?),
             None => Ok(f64::INFINITY),

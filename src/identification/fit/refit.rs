@@ -12,9 +12,10 @@ use crate::identification::model::PowerModel;
 /// physically consistent ones) held, from the values of `fitted` (the fit `model` came
 /// from): the copper coefficients `fitted` estimated (for [`Estimator::Pmsm`], kept >= 0;
 /// those it held at zero stay there) and the standby power, by Levenberg–Marquardt with the
-/// samples weighted by `weighting` (and the copper coefficients' prior, if any). The projection moves the loss terms only along their
-/// correlation with the base parameters; the data decide them once those are fixed. The
-/// model predicts the arm's power, so its losses are refitted on the arm's power alone
+/// samples weighted by `weighting` (and the copper coefficients' prior, if any). The
+/// projection moves the loss terms only along their correlation with the base parameters;
+/// the data decide them once those are fixed. The model predicts the arm's power, so its
+/// losses are refitted on the arm's power alone
 /// (docs/experiments.md#losses-refitted-on-the-arms-power).
 pub(super) fn refit_losses(
     s: &Samples,
