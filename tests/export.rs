@@ -136,9 +136,24 @@ fn exported_drive_file_reads_back() {
     assert!(text.starts_with("# line one\n# line two\n"));
     assert!(text.contains("# joint 1 note\n[[joint]]"));
     let back = Drive::from_toml_str(&text, "exported", &robot).unwrap();
-    // An identified drive has the model's structure: the twin's unmodelled effects are not
-    // written (nothing identified them).
-    assert_eq!(back.joints(), drive.exact().joints());
+    // An identified drive has the model's structure: of the twin's unmodelled effects only
+    // the gear friction is written (`identify --method gear` identifies it), the others not.
+    let expected: Vec<_> = drive
+        .exact()
+        .joints()
+        .iter()
+        .zip(drive.joints())
+        .map(|(exact, full)| powertwin::model::drive::JointDrive {
+            unmodelled: powertwin::model::drive::Unmodelled {
+                gear_friction: full.unmodelled.gear_friction,
+                gear_friction_braking: full.unmodelled.gear_friction_braking,
+                ..Default::default()
+            },
+            ..*exact
+        })
+        .collect();
+    assert!(drive.joints()[0].unmodelled.gear_friction > 0.0);
+    assert_eq!(back.joints(), expected.as_slice());
 }
 
 /// `identify --export-urdf --export-drive` writes files that load as a robot and its drives
@@ -214,12 +229,32 @@ fn identify_exports_the_identified_robot() {
     );
     let text = std::fs::read_to_string(&urdf).unwrap();
     assert!(text.contains("Set by the prior") && text.contains("identified by powertwin"));
+    // With gear friction (the twin's drives have 0.02), the drive file carries what the model
+    // identified, alike in both directions (the export's own projection, as for the copper
+    // loss: it moves the loss terms along their correlation with the base parameters).
+    let gear = argv("gear");
+    let (code, _, err) = common::run(&gear.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 0, "{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
+    let g: Vec<f64> = serde_json::from_value(m["model"]["gear_friction"].clone()).unwrap();
+    let d = Drive::from_file(&drv, &b).unwrap();
+    for (j, gj) in d.joints().iter().zip(&g) {
+        let u = &j.unmodelled;
+        assert_eq!(u.gear_friction, u.gear_friction_braking);
+        assert!(
+            (u.gear_friction - gj).abs() < 0.01,
+            "{} against {gj}",
+            u.gear_friction
+        );
+    }
+    assert!(g.iter().any(|v| *v > 0.0), "{g:?}");
     // A step-by-step model (scaled by 1/efficiency, no joint covariance) cannot be exported.
     std::fs::remove_file(&urdf).unwrap();
     let total = argv("paper-steps");
     let (code, _, err) = common::run(&total.iter().map(String::as_str).collect::<Vec<_>>());
     assert_ne!(code, 0);
-    assert!(err.contains("--method auto, total or pmsm"), "{err}");
+    assert!(err.contains("--method auto, total, pmsm or gear"), "{err}");
     assert!(!urdf.exists());
 }
 

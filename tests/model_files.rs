@@ -497,6 +497,67 @@ fn model_schema_version_is_written_and_checked() {
     assert!(e.to_string().contains("schema_version 2"), "{e}");
 }
 
+/// A model with gear friction reads back, with the covariance of `[theta, copper, gear, P0]`
+/// and its model without gear friction beside; the wrong sizes and a `without_gear` that
+/// does not belong are refused, naming the field.
+#[test]
+fn a_model_with_gear_friction_is_written_and_checked() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::identification::model::PowerModel;
+    let robot = irb1200();
+    let n = robot.dof();
+    let pmsm = PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
+    let mut gear = pmsm.clone();
+    gear.gear_friction = vec![0.02; n];
+    gear.without_gear = Some(Box::new(pmsm.clone()));
+    let np = gear.params();
+    assert_eq!(np, pmsm.params() + n);
+    gear.covariance = vec![0.0; np * np];
+    let v = serde_json::to_value(&gear).unwrap();
+    assert!(v["without_gear"].is_object() && v["gear_friction"].is_array());
+    assert!(
+        serde_json::to_value(&pmsm)
+            .unwrap()
+            .get("gear_friction")
+            .is_none()
+    );
+    let read: PowerModel = serde_json::from_value(v).unwrap();
+    assert_eq!(read, gear);
+    read.validate(&robot).unwrap();
+    let refused = |m: PowerModel, what: &str| {
+        let e = m.validate(&robot).unwrap_err().to_string();
+        assert!(e.contains(what), "{e}");
+    };
+    refused(
+        PowerModel {
+            gear_friction: vec![0.02; n - 1],
+            ..gear.clone()
+        },
+        "gear_friction has 5 entries",
+    );
+    refused(
+        PowerModel {
+            covariance: vec![0.0; pmsm.params().pow(2)],
+            ..gear.clone()
+        },
+        "covariance has",
+    );
+    refused(
+        PowerModel {
+            without_gear: Some(Box::new(gear.clone())),
+            ..gear.clone()
+        },
+        "without_gear",
+    );
+    refused(
+        PowerModel {
+            without_gear: Some(Box::new(pmsm.clone())),
+            ..pmsm.clone()
+        },
+        "without_gear",
+    );
+}
+
 const GOOD_PAYLOAD: &str = r#"
 name = "p"
 frame = "tool0"

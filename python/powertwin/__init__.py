@@ -259,13 +259,15 @@ class Prediction:
     the logged samples: `t_s` (s), `power_W` (predicted), `measured_W` (W). `below_seen_J`
     and `unseen_load_J` (J) are the parts of the motion the identification logs never showed
     (a clipped meter below its lowest seen level; a payload heavier than they carried), as
-    `predict --json` gives them; the interval includes them."""
+    `predict --json` gives them; `without_gear_J` (J, None without gear friction) what the
+    model predicts without its load-dependent gear friction. The interval includes them."""
 
     energy_J: float
     interval_J: float
     duration_s: float
     below_seen_J: float
     unseen_load_J: float
+    without_gear_J: Optional[float]
     measured_J: float
     error_pct: float
     power_rmse_W: float
@@ -279,13 +281,14 @@ class PlanPrediction:
     """The predicted energy of a planned motion (`powertwin predict --trajectory`):
     `energy_J` with its 95 % interval half width `interval_J` (J), `duration_s`,
     `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s);
-    `below_seen_J` and `unseen_load_J` (J) as in `Prediction`."""
+    `below_seen_J`, `unseen_load_J` and `without_gear_J` (J) as in `Prediction`."""
 
     energy_J: float
     interval_J: float
     duration_s: float
     below_seen_J: float
     unseen_load_J: float
+    without_gear_J: Optional[float]
     mean_power_W: float
     t_s: np.ndarray
     power_W: np.ndarray
@@ -396,12 +399,13 @@ def identify(
     prior_widths: Optional[Mapping[str, float]] = None,
 ) -> Model:
     """Identify a power model from logs, as `powertwin identify` does with `--method auto`
-    (or "total", "pmsm"): the estimator chosen by cross-validation, the model physically
-    consistent, the prior from the URDF and the robot's drive file. `runs`: Logs, or Runs
-    with their known payloads. `min_speed` rad/s (default 0.05), `fit_rate` Hz, `weighting`
-    "none" | "per-log" | "power-level", `prior_widths` {mass, com (m), inertia, friction,
-    rotor, copper}: the CLI's options. (The CLI's held-out check, `--holdout`, is not run: it does not
-    change the model.)"""
+    (or "total", "pmsm", "gear": load-dependent gear friction where cross-validation prefers
+    it to "pmsm"): the estimator chosen by cross-validation, the model physically consistent,
+    the prior from the URDF and the robot's drive file. `runs`: Logs, or Runs with their
+    known payloads. `min_speed` rad/s (default 0.05), `fit_rate` Hz, `weighting` "none" |
+    "per-log" | "power-level", `prior_widths` {mass, com (m), inertia, friction, rotor,
+    copper, gear}: the CLI's options. (The CLI's held-out check, `--holdout`, is not run: it
+    does not change the model.)"""
     logs = []
     for k, r in enumerate(runs):
         if isinstance(r, Run):

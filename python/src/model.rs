@@ -77,9 +77,10 @@ fn widths(w: Option<std::collections::HashMap<String, f64>>) -> PyResult<PriorWi
             "friction" => &mut out.friction_rel,
             "rotor" => &mut out.rotor_rel,
             "copper" => &mut out.copper_rel,
+            "gear" => &mut out.gear_rel,
             other => {
                 return Err(value_error(format!(
-                    "prior_widths: unknown key '{other}' (mass, com, inertia, friction, rotor, copper)"
+                    "prior_widths: unknown key '{other}' (mass, com, inertia, friction, rotor, copper, gear)"
                 )));
             }
         };
@@ -92,12 +93,13 @@ fn widths(w: Option<std::collections::HashMap<String, f64>>) -> PyResult<PriorWi
 /// `--weighting`).
 fn estimators(method: &str, weighting: Option<&str>) -> PyResult<(Vec<Estimator>, Weighting)> {
     let candidates = match method {
-        "auto" => vec![Estimator::Total, Estimator::Pmsm],
+        "auto" => Estimator::auto(),
         "total" => vec![Estimator::Total],
         "pmsm" => vec![Estimator::Pmsm],
+        "gear" => vec![Estimator::Pmsm, Estimator::Gear],
         other => {
             return Err(value_error(format!(
-                "method={other:?}: expected 'auto', 'total' or 'pmsm'"
+                "method={other:?}: expected 'auto', 'total', 'pmsm' or 'gear'"
             )));
         }
     };
@@ -238,6 +240,7 @@ fn plan_dict<'py>(py: Python<'py>, p: &PlanPrice, t0: f64) -> PyResult<Bound<'py
     d.set_item("duration_s", pred.duration_s)?;
     d.set_item("below_seen_J", pred.below_seen_j)?;
     d.set_item("unseen_load_J", pred.unseen_load_j)?;
+    d.set_item("without_gear_J", pred.without_gear_j)?;
     d.set_item("mean_power_W", p.mean_power_w())?;
     let t: Vec<f64> = p.t_s.iter().map(|t| t + t0).collect();
     d.set_item("t_s", PyArray1::from_vec(py, t))?;
@@ -325,6 +328,7 @@ impl PyModel {
         d.set_item("duration_s", lp.prediction.duration_s)?;
         d.set_item("below_seen_J", lp.prediction.below_seen_j)?;
         d.set_item("unseen_load_J", lp.prediction.unseen_load_j)?;
+        d.set_item("without_gear_J", lp.prediction.without_gear_j)?;
         d.set_item("measured_J", lp.measured_j)?;
         d.set_item("error_pct", lp.error_pct())?;
         d.set_item("power_rmse_W", lp.rmse_w())?;
@@ -408,7 +412,8 @@ impl PyModel {
         PyArray1::from_slice(py, &self.model.theta)
     }
 
-    /// The identification method of the model file ("auto", "total" or "pmsm"), if it says.
+    /// The identification method of the model file ("auto", "total", "pmsm" or "gear"), if it
+    /// says.
     #[getter]
     fn method(&self) -> Option<String> {
         self.doc

@@ -33,7 +33,7 @@ use super::log::{LogArgs, load_logs};
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Method {
-    /// The estimator chosen by cross-validation (leave one log out, or time blocks) among
+    /// The estimator chosen by cross-validation (leave one log out, or time blocks) between
     /// `total` and `pmsm`; known payloads enter through the base relations.
     Auto,
     /// The paper: step by step from total power, datasets in step order (joint 6, 5-6, ...).
@@ -46,6 +46,10 @@ pub enum Method {
     Energy,
     /// PMSM losses too (copper and standby, nonlinear least squares).
     Pmsm,
+    /// PMSM losses and load-dependent gear friction `g |tau dq|` per joint (nonlinear),
+    /// chosen by cross-validation against `pmsm`; the interval adds the two models'
+    /// disagreement.
+    Gear,
 }
 
 /// Weighting of the samples (see `identify --weighting`).
@@ -160,27 +164,27 @@ pub struct IdentifyArgs {
     payloads: PayloadArgs,
     /// Samples at which an excited joint moves slower than this (rad/s) are not fitted on
     /// (around velocity reversals the Coulomb sign is uncertain and stiction holds the joint)
-    /// [default: 0.05 for auto, total and pmsm; 0 for the others].
+    /// [default: 0.05 for auto, total, pmsm and gear; 0 for the others].
     #[arg(long, value_name = "RAD_S")]
     min_speed: Option<f64>,
     /// Fastest rate at which a log's states are fitted on, Hz: a faster log is fitted on every
     /// k-th state (all still count in the cross-validation's energies); 0 fits every state
-    /// (slower, for --method auto, total and pmsm).
+    /// (slower, for --method auto, total, pmsm and gear).
     #[arg(long, value_name = "HZ", default_value_t = powertwin::identification::tuning::MAX_FIT_RATE_HZ)]
     fit_rate: f64,
-    /// Weighted least squares for --method auto, total and pmsm: `none` (ordinary),
+    /// Weighted least squares for --method auto, total, pmsm and gear: `none` (ordinary),
     /// `per-log` weighs each log by the inverse of its residual variance, `power-level` each
     /// sample by the inverse of a variance growing with the predicted active power (both
     /// iterated from the residuals) [default: power-level].
     #[arg(long, value_enum)]
     weighting: Option<WeightingArg>,
-    /// Keep the least-squares estimate as it is. By default (--method auto, total and pmsm)
+    /// Keep the least-squares estimate as it is. By default (--method auto, total, pmsm and gear)
     /// the model is made physically consistent inside identification: positive-definite
     /// pseudo-inertias, non-negative friction, rotor inertia and losses, nearest to the
     /// estimate in its covariance (the input URDF decides what the data cannot see).
     #[arg(long)]
     unconstrained: bool,
-    /// Fit the arm's power alone for --method auto, total and pmsm. By default, when every
+    /// Fit the arm's power alone for --method auto, total, pmsm and gear. By default, when every
     /// log has the power of each motor, each motor's power is fitted too (its own standby
     /// power per motor): each joint's parameters are then seen in its own motor, not only
     /// under the larger joints' power.
@@ -191,14 +195,14 @@ pub struct IdentifyArgs {
     /// identify on the rest with the same options and report each held-out piece's measured
     /// and predicted energy, error, 95 % interval and power RMSE, then the median and worst
     /// error and the interval coverage (stderr). 0 skips it; with too few pieces it is
-    /// skipped with a note. For --method auto, total and pmsm [default: 4].
+    /// skipped with a note. For --method auto, total, pmsm and gear [default: 4].
     #[arg(long, value_name = "K")]
     holdout: Option<usize>,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
     #[arg(long, value_name = "MODEL.json")]
     out: PathBuf,
     /// Also write the identified robot as URDF: physically consistent link inertials and
-    /// friction (needs --method auto, total or pmsm); what the data cannot reveal keeps the input
+    /// friction (needs --method auto, total, pmsm or gear); what the data cannot reveal keeps the input
     /// URDF's values.
     #[arg(long, value_name = "OUT.urdf")]
     export_urdf: Option<PathBuf>,
@@ -216,18 +220,18 @@ pub struct IdentifyArgs {
 /// The prior of identification: what the URDF and the drive file already say.
 #[derive(Debug, Args)]
 pub struct PriorArgs {
-    /// Drive file whose data-sheet friction, rotor inertia and copper-loss coefficients centre
-    /// the prior [default: the built-in drive for the built-in robot, else the URDF's
-    /// <dynamics> friction and no copper-loss prior].
+    /// Drive file whose data-sheet friction, rotor inertia, copper-loss coefficients and gear
+    /// friction centre the prior [default: the built-in drive for the built-in robot, else the
+    /// URDF's <dynamics> friction and no copper-loss or gear-friction prior].
     #[arg(long, value_name = "PATH")]
     drive: Option<PathBuf>,
     /// A prior width (one standard deviation), repeatable: mass=0.3 (relative), com=0.02 (m),
-    /// inertia=0.5 (relative to the mean principal moment), friction=0.5, rotor=0.5 and
-    /// copper=0.5 (relative to the drive file's value). The defaults are those.
+    /// inertia=0.5 (relative to the mean principal moment), friction=0.5, rotor=0.5,
+    /// copper=0.5 and gear=1 (relative to the drive file's value). The defaults are those.
     #[arg(long, value_name = "KEY=VALUE")]
     prior_width: Vec<String>,
     /// Identify from the data alone, without the prior: a log that leaves directions of the
-    /// base-parameter space undetermined is then refused (--method auto, total and pmsm; the
+    /// base-parameter space undetermined is then refused (--method auto, total, pmsm and gear; the
     /// paper's methods never use the prior).
     #[arg(long, conflicts_with_all = ["drive", "prior_width"])]
     no_prior: bool,
@@ -252,8 +256,9 @@ impl PriorArgs {
                 "friction" => &mut w.friction_rel,
                 "rotor" => &mut w.rotor_rel,
                 "copper" => &mut w.copper_rel,
+                "gear" => &mut w.gear_rel,
                 other => bail!(
-                    "--prior-width {item}: unknown key '{other}' (mass, com, inertia, friction, rotor, copper)"
+                    "--prior-width {item}: unknown key '{other}' (mass, com, inertia, friction, rotor, copper, gear)"
                 ),
             };
             *slot = v;
@@ -337,7 +342,10 @@ pub(super) fn gather(
 pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let logs = gather(&args.data, &args.logs, &robot, &args.payloads)?;
-    let fitted = matches!(args.method, Method::Auto | Method::Total | Method::Pmsm);
+    let fitted = matches!(
+        args.method,
+        Method::Auto | Method::Total | Method::Pmsm | Method::Gear
+    );
     let min_speed = args
         .min_speed
         .unwrap_or(if fitted { MIN_SPEED } else { 0.0 });
@@ -375,7 +383,7 @@ fn report_holdout(
     }
     if !fitted {
         if args.holdout.is_some() {
-            eprintln!("holdout skipped: --holdout applies to --method auto, total and pmsm");
+            eprintln!("holdout skipped: --holdout applies to --method auto, total, pmsm and gear");
         }
         return None;
     }
@@ -411,7 +419,7 @@ fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64)
             || args.prior.no_prior)
     {
         bail!(
-            "--weighting, --unconstrained, --arm-power-only and the prior's options apply to --method auto, total and pmsm, not {:?}",
+            "--weighting, --unconstrained, --arm-power-only and the prior's options apply to --method auto, total, pmsm and gear, not {:?}",
             args.method
         );
     }
@@ -421,7 +429,7 @@ fn check_method(args: &IdentifyArgs, logs: &[Log], fitted: bool, min_speed: f64)
             .any(|l| l.payloads.iter().any(|e| e.payload.is_some()))
     {
         bail!(
-            "method {:?} does not take known payloads; use --method auto, total or pmsm for data recorded with a payload",
+            "method {:?} does not take known payloads; use --method auto, total, pmsm or gear for data recorded with a payload",
             args.method
         );
     }
@@ -447,7 +455,8 @@ fn fit_options(args: &IdentifyArgs, min_speed: f64, prior: Option<Prior>) -> Fit
     let candidates = match args.method {
         Method::Total => vec![Estimator::Total],
         Method::Pmsm => vec![Estimator::Pmsm],
-        _ => vec![Estimator::Total, Estimator::Pmsm],
+        Method::Gear => vec![Estimator::Pmsm, Estimator::Gear],
+        _ => Estimator::auto(),
     };
     FitOptions {
         min_speed,

@@ -173,6 +173,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
                 "below_seen_J": pred.below_seen_j,
                 "unseen_load_J": pred.unseen_load_j,
+                "without_gear_J": pred.without_gear_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -269,6 +270,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "power_signal": model.signal.name(),
             "below_seen_J": pred.below_seen_j,
             "unseen_load_J": pred.unseen_load_j,
+            "without_gear_J": pred.without_gear_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {
@@ -285,8 +287,8 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
 }
 
 /// The notes a prediction carries when its power goes below the lowest level the
-/// identification logs show the meter at, or its payload is heavier than they carried (empty
-/// otherwise).
+/// identification logs show the meter at, its payload is heavier than they carried, or its
+/// model has gear friction (empty otherwise).
 fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     let mut note = String::new();
     if pred.below_seen_j > 0.0 {
@@ -299,6 +301,11 @@ fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
         note += &format!(
             "; a payload heavier than identification carried moves {:.2} J more through the joints (its losses undetermined, in the interval)",
             pred.unseen_load_j
+        );
+    }
+    if let Some(e) = pred.without_gear_j {
+        note += &format!(
+            "; {e:.2} J without the load-dependent gear friction (the difference is in the interval)"
         );
     }
     note

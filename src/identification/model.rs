@@ -75,6 +75,11 @@ pub struct PowerModel {
     /// Copper-loss coefficient per joint, W/(N m)^2 (0 for the efficiency model).
     #[serde(rename = "copper_W_per_Nm2")]
     pub copper: Vec<f64>,
+    /// Load-dependent gear friction per joint: power lost per W transmitted, `g_i |tau_i
+    /// dq_i|`, dimensionless; empty when the model has no such term (an estimator without it,
+    /// or an older file).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gear_friction: Vec<f64>,
     /// Constant power per joint, W (standby, auxiliaries, meter offset; only their sum is
     /// identifiable from total power, stored on joint 1).
     #[serde(rename = "constant_W")]
@@ -83,8 +88,9 @@ pub struct PowerModel {
     /// sum `P`.
     #[serde(default)]
     pub signal: PowerSignal,
-    /// Covariance of `z = [theta, copper, P0]` from the fit, row-major, `(nb + n + 1)^2`
-    /// entries (units: squares of the parameters'); empty when unknown.
+    /// Covariance of `z = [theta, copper, gear_friction, P0]` from the fit, row-major,
+    /// [`PowerModel::params`] squared entries (units: squares of the parameters'); empty when
+    /// unknown.
     #[serde(default)]
     pub covariance: Vec<f64>,
     /// Standard deviation of the mean-power error on motions the model was not fitted on
@@ -134,6 +140,14 @@ pub struct PowerModel {
     /// the power at a log's samples shifts by it; energies of motions do not depend on it.
     #[serde(default, skip_serializing_if = "zero_lag")]
     pub power_lag_s: f64,
+    /// For a model with gear friction: the same robot's model without it (the `pmsm` fit
+    /// of the same logs). The excitations show how large the load-dependent friction is, not
+    /// its law (how it differs with the direction of the power flow, which periodic motions
+    /// that return to their start barely weigh): a prediction adds the two models'
+    /// disagreement on the motion to its standard deviation (`without_gear_J`). `None`: no
+    /// gear friction, or an older file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub without_gear: Option<Box<PowerModel>>,
 }
 
 /// Whether a model has no power lag (then left out of the file, as before there was one).
@@ -154,6 +168,7 @@ impl PowerModel {
             theta: vec![0.0; base.rank()],
             efficiency_scaled,
             copper: vec![0.0; robot.dof()],
+            gear_friction: Vec::new(),
             constant: vec![0.0; robot.dof()],
             signal: PowerSignal::Total,
             covariance: Vec::new(),
@@ -163,6 +178,7 @@ impl PowerModel {
             lowest_seen: None,
             payload_seen: None,
             power_lag_s: 0.0,
+            without_gear: None,
         })
     }
 
@@ -209,7 +225,13 @@ impl PowerModel {
                 )));
             }
         }
-        let np = nb + n + 1;
+        if !(self.gear_friction.is_empty() || self.gear_friction.len() == n) {
+            return Err(bad(format!(
+                "gear_friction has {} entries for {n} joints",
+                self.gear_friction.len()
+            )));
+        }
+        let np = self.params();
         if !self.covariance.is_empty() && self.covariance.len() != np * np {
             return Err(bad(format!(
                 "covariance has {} entries, expected {np}^2 = {}",
@@ -220,6 +242,7 @@ impl PowerModel {
         for (what, v) in [
             ("theta", &self.theta),
             ("copper_W_per_Nm2", &self.copper),
+            ("gear_friction", &self.gear_friction),
             ("constant_W", &self.constant),
             ("covariance", &self.covariance),
         ] {
@@ -245,6 +268,15 @@ impl PowerModel {
             return Err(bad(format!(
                 "payload_seen_kg = {v} must be finite and >= 0"
             )));
+        }
+        if let Some(alt) = &self.without_gear {
+            if self.gear_friction.is_empty() || !alt.gear_friction.is_empty() {
+                return Err(bad(
+                    "without_gear belongs to a model with gear_friction and has none itself".into(),
+                ));
+            }
+            alt.validate(robot)
+                .map_err(|e| bad(format!("without_gear: {e}")))?;
         }
         Ok(())
     }
@@ -278,11 +310,24 @@ impl PowerModel {
         (0..robot.dof()).fold(0.0, |p, i| p + self.joint_power(w, i, dq[i]))
     }
 
-    /// Predicted power of motor `i` (0-based), W: `dq_i tau_i + c_i tau_i^2 + P0_i` with
-    /// `tau_i` from row `i` of the regressor `w` already evaluated at the state.
+    /// Predicted power of motor `i` (0-based), W: `dq_i tau_i + c_i tau_i^2 + g_i |dq_i
+    /// tau_i| + P0_i` with `tau_i` from row `i` of the regressor `w` already evaluated at the
+    /// state.
     fn joint_power(&self, w: &DMatrix<f64>, i: usize, dq_i: f64) -> f64 {
         let tau = self.torque(w, i);
-        dq_i * tau + self.copper[i] * tau * tau + self.constant[i]
+        let mech = dq_i * tau;
+        mech + self.copper[i] * tau * tau + self.gear(i) * mech.abs() + self.constant[i]
+    }
+
+    /// Joint `i`'s gear-friction coefficient (0 without the term).
+    fn gear(&self, i: usize) -> f64 {
+        self.gear_friction.get(i).copied().unwrap_or(0.0)
+    }
+
+    /// Number of parameters the covariance covers, `z = [theta, copper, gear_friction,
+    /// P0]`: `nb + n + 1`, and `n` more with gear friction.
+    pub fn params(&self) -> usize {
+        self.columns.len() + self.copper.len() + self.gear_friction.len() + 1
     }
 
     /// Predicted energy (J) of following `traj`, integrating the power at step `dt` (s) with
@@ -504,8 +549,9 @@ impl PowerModel {
     /// (at least `structure_active_W` times the duration), plus half the energy a clipped
     /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
     /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
-    /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`).
-    /// `dt`: integration step, s.
+    /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus,
+    /// for a model with gear friction, its disagreement with the model without it
+    /// (`without_gear_J`). `dt`: integration step, s.
     pub fn predict(
         &self,
         robot: &Robot,
@@ -519,13 +565,15 @@ impl PowerModel {
                 "integration step {dt} s must be positive"
             )));
         }
-        let n = robot.dof();
-        let nb = self.columns.len();
-        let np = nb + n + 1;
+        let np = self.params();
         let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
         let h = traj.duration() / steps as f64;
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
+        let without_gear_j = match &self.without_gear {
+            Some(alt) => Some(alt.predict(robot, traj, events, efficiency, dt)?.energy_j),
+            None => None,
+        };
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
         let mut unseen_load = 0.0;
         let lowest_seen = if clipped { self.lowest_seen } else { None };
@@ -545,24 +593,9 @@ impl PowerModel {
                 unseen += weight * (low - signal).max(0.0);
             }
             unseen_load += weight * self.unseen_load_power(e);
-            if clipped && total < 0.0 {
-                return;
+            if !(clipped && total < 0.0) {
+                self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
-            for i in 0..n {
-                let tau = e.model.torque(e.w, i);
-                let dp_dtau = e.dq[i] + 2.0 * e.model.copper[i] * tau;
-                for (kk, &c) in self.columns.iter().enumerate() {
-                    g[kk] += weight * dp_dtau * e.w[(i, c)];
-                }
-                g[nb + i] += weight * (tau * tau + e.unsure[i]);
-                // `unsure` is `fc^2 (1 - s^2)`, quadratic in the Coulomb parameter.
-                if let Some((_, kc)) = coulomb[i]
-                    && e.model.theta[kc] != 0.0
-                {
-                    g[kc] += weight * 2.0 * e.model.copper[i] * e.unsure[i] / e.model.theta[kc];
-                }
-            }
-            g[np - 1] += weight;
         })?;
         let param_var = if self.covariance.len() == np * np {
             let cov = DMatrix::from_row_slice(np, np, &self.covariance);
@@ -573,21 +606,59 @@ impl PowerModel {
         };
         let duration = traj.duration();
         let active = active.max(self.structure_active * duration);
+        let energy_j = if clipped { grid } else { motor };
+        let disagreement = without_gear_j.map_or(0.0, |e| energy_j - e);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
             + (0.5 * unseen).powi(2)
-            + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2))
+            + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
+            + disagreement.powi(2))
         .sqrt();
         Ok(Prediction {
-            energy_j: if clipped { grid } else { motor },
+            energy_j,
             interval_j: 1.96 * sigma,
             motor_j: motor,
             grid_j: grid,
             duration_s: duration,
             below_seen_j: unseen,
             unseen_load_j: unseen_load,
+            without_gear_j,
         })
+    }
+
+    /// Add `weight` times the gradient of state `e`'s predicted power in `z = [theta, copper,
+    /// gear_friction, P0]` (the covariance's parameters) to `g`; `coulomb` as
+    /// [`PowerModel::coulomb_params`] gives.
+    fn add_power_gradient(
+        &self,
+        e: &StateEval,
+        coulomb: &[Option<(usize, usize)>],
+        weight: f64,
+        g: &mut [f64],
+    ) {
+        let (n, nb) = (self.copper.len(), self.columns.len());
+        for i in 0..n {
+            let tau = e.model.torque(e.w, i);
+            let mech = e.dq[i] * tau;
+            let dp_dtau =
+                e.dq[i] + 2.0 * e.model.copper[i] * tau + e.model.gear(i) * mech.signum() * e.dq[i];
+            for (kk, &c) in self.columns.iter().enumerate() {
+                g[kk] += weight * dp_dtau * e.w[(i, c)];
+            }
+            g[nb + i] += weight * (tau * tau + e.unsure[i]);
+            if !self.gear_friction.is_empty() {
+                g[nb + n + i] += weight * mech.abs();
+            }
+            // `unsure` is `fc^2 (1 - s^2)`, quadratic in the Coulomb parameter.
+            if let Some((_, kc)) = coulomb[i]
+                && e.model.theta[kc] != 0.0
+            {
+                g[kc] += weight * 2.0 * e.model.copper[i] * e.unsure[i] / e.model.theta[kc];
+            }
+        }
+        let last = g.len() - 1;
+        g[last] += weight;
     }
 
     /// Mechanical power (W) the payload attached at state `e` moves through the joints,
@@ -677,6 +748,11 @@ pub struct Prediction {
     /// interval's standard deviation.
     #[serde(rename = "unseen_load_J")]
     pub unseen_load_j: f64,
+    /// For a model with gear friction, the energy its model without gear friction predicts
+    /// ([`PowerModel::without_gear`]), J: the difference is in the interval's standard
+    /// deviation. `None` without gear friction.
+    #[serde(rename = "without_gear_J", skip_serializing_if = "Option::is_none")]
+    pub without_gear_j: Option<f64>,
 }
 
 /// Predicted energy of a motion.

@@ -34,7 +34,8 @@ use crate::model::drive::Drive;
 /// Widths (one standard deviation) of the prior. The defaults are what CAD and data sheets
 /// usually miss by: a link's mass by 30 %, its centre of mass by 2 cm, its inertia by 50 %,
 /// a data-sheet friction or rotor inertia by 50 %, a data-sheet copper-loss coefficient by
-/// 50 % (a winding's resistance alone rises by 30 % from 20 to 100 degC).
+/// 50 % (a winding's resistance alone rises by 30 % from 20 to 100 degC), a data-sheet gear
+/// friction by 100 % (data sheets rarely state it; it is an estimate where they do).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PriorWidths {
@@ -51,6 +52,14 @@ pub struct PriorWidths {
     /// Copper-loss coefficient, relative to the drive file's value.
     #[serde(default = "default_copper_rel")]
     pub copper_rel: f64,
+    /// Load-dependent gear friction, relative to the drive file's value.
+    #[serde(default = "default_gear_rel")]
+    pub gear_rel: f64,
+}
+
+/// [`PriorWidths::gear_rel`] by default.
+fn default_gear_rel() -> f64 {
+    1.0
 }
 
 /// [`PriorWidths::copper_rel`] by default.
@@ -67,6 +76,7 @@ impl Default for PriorWidths {
             friction_rel: 0.5,
             rotor_rel: 0.5,
             copper_rel: default_copper_rel(),
+            gear_rel: default_gear_rel(),
         }
     }
 }
@@ -100,6 +110,10 @@ pub struct Prior {
     /// drive file): the data alone then decide it, held at zero where they cannot tell it
     /// from zero.
     pub copper: Vec<Option<Normal>>,
+    /// Per joint, the drive file's load-dependent gear friction (the mean of its motoring and
+    /// braking values, the form the `gear` estimator fits), dimensionless, with its width;
+    /// `None` where the file gives none.
+    pub gear: Vec<Option<Normal>>,
 }
 
 /// A normal distribution of one value.
@@ -166,11 +180,24 @@ impl Prior {
                 })
             })
             .collect();
+        let gear = (0..robot.dof())
+            .map(|j| {
+                let g = drive.map_or(0.0, |d| {
+                    let u = &d.joints()[j].unmodelled;
+                    0.5 * (u.gear_friction + u.gear_friction_braking)
+                });
+                (g > 0.0).then_some(Normal {
+                    mean: g,
+                    std: widths.gear_rel * g,
+                })
+            })
+            .collect();
         Ok(Prior {
             mean: base.base_values(&phi)?,
             covariance,
             root_precision: l_inv,
             copper,
+            gear,
         })
     }
 
@@ -342,6 +369,7 @@ fn check_widths(w: &PriorWidths) -> Result<()> {
         ("friction", w.friction_rel),
         ("rotor", w.rotor_rel),
         ("copper", w.copper_rel),
+        ("gear", w.gear_rel),
     ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(Error::InvalidInput(format!(

@@ -26,8 +26,9 @@
 //! standby_W = 4.0
 //! coulomb_Nm = 10.0                   # optional; default: the URDF <dynamics friction>
 //! viscous_Nms_per_rad = 8.0           # optional; default: the URDF <dynamics damping>
-//! # Optional effects that identified models do not have ([`Unmodelled`]; default 0 / none),
-//! # applied only by a twin run with realistic fidelity:
+//! # Optional effects beyond the power model's structure ([`Unmodelled`]; default 0 / none;
+//! # identify --method gear fits gear friction alike in both directions), applied only by a
+//! # twin run with realistic fidelity:
 //! iron_hysteresis_W_per_rad_s = 0.9   # iron loss k_h |dq|
 //! iron_eddy_W_s2_per_rad2 = 0.36      # iron loss k_e dq^2
 //! stribeck_static_Nm = 12.5           # static friction (>= coulomb_Nm) at rest
@@ -66,8 +67,10 @@ pub struct JointDrive {
     pub unmodelled: Unmodelled,
 }
 
-/// Drive effects that the identified power model does not represent, so that a twin using
-/// them is richer than any model identified from it (as a real robot is). Link side.
+/// Drive effects beyond the identified power model's structure, so that a twin using them is
+/// richer than any model identified from it (as a real robot is); the `gear` estimator
+/// ([`crate::identification::fit::Estimator::Gear`]) represents gear friction alike in both
+/// directions of the power flow. Link side.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Unmodelled {
     /// Hysteresis iron loss `k_h |dq|`, W/(rad/s).

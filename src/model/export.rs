@@ -272,6 +272,17 @@ pub fn drive_string(robot: &Robot, drive: &Drive, header: &str, joint_notes: &[S
         let _ = writeln!(out, "standby_W = {:?}", d.standby_power);
         let _ = writeln!(out, "coulomb_Nm = {:?}", d.friction.coulomb);
         let _ = writeln!(out, "viscous_Nms_per_rad = {:?}", d.friction.viscous);
+        // Load-dependent gear friction, the one unmodelled effect an identified model can
+        // carry (written only when present, as the input files have it).
+        let gear = &d.unmodelled;
+        if gear.gear_friction != 0.0 || gear.gear_friction_braking != 0.0 {
+            let _ = writeln!(out, "gear_friction_per_Nm = {:?}", gear.gear_friction);
+            let _ = writeln!(
+                out,
+                "gear_friction_braking_per_Nm = {:?}",
+                gear.gear_friction_braking
+            );
+        }
     }
     out
 }

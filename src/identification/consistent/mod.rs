@@ -477,7 +477,7 @@ fn project_estimate(
     let base = model.base_params(robot)?;
     if model.efficiency_scaled {
         return Err(Error::InvalidInput(
-            "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method auto, total or pmsm)".into(),
+            "the model is scaled by 1/efficiency (power alone cannot separate them); export needs a model in SI units (identify --method auto, total, pmsm or gear)".into(),
         ));
     }
     let nb = model.theta.len();
@@ -488,7 +488,7 @@ fn project_estimate(
         && estimate.covariance.shape() == (nt, nt);
     if !covers {
         return Err(Error::InvalidInput(
-            "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method auto, total or pmsm".into(),
+            "the estimate does not cover all base parameters of the model at once (a step-by-step fit has no joint covariance); export needs identify --method auto, total, pmsm or gear".into(),
         ));
     }
     project(&base, &estimate.values, &estimate.covariance, prior, opts)
@@ -498,8 +498,8 @@ fn project_estimate(
 /// within the consistent set rather than a check afterwards): the base parameters of the
 /// consistent standard parameters that [`project`] finds for `model`'s `estimate` (closest
 /// in the estimate's Mahalanobis metric; `prior` decides only what the data cannot see), and
-/// the estimate's other values (copper-loss coefficients `c<i>_W_per_Nm2`, standby `P0_W`)
-/// as the projection moved them (kept >= 0). The covariance and intervals stay the
+/// the estimate's other values (copper-loss coefficients `c<i>_W_per_Nm2`, gear friction
+/// `g<i>_gear_friction`, standby `P0_W`) as the projection moved them (kept >= 0). The covariance and intervals stay the
 /// unconstrained estimate's.
 ///
 /// Errors: as [`IdentifiedTwin::new`].
@@ -521,6 +521,7 @@ pub fn constrain(
                 out.constant[0] = *v;
             }
             Param::Copper(i) if i < out.copper.len() => out.copper[i] = *v,
+            Param::Gear(i) if i < out.gear_friction.len() => out.gear_friction[i] = *v,
             _ => {}
         }
     }

@@ -48,13 +48,16 @@ impl IdentifiedTwin {
     ) -> Result<IdentifiedTwin> {
         let consistent = project_estimate(robot, model, estimate, prior, opts)?;
         let nb = model.theta.len();
-        // Copper and standby from the consistent extras where the estimate has them.
+        // Copper, gear friction and standby from the consistent extras where the estimate
+        // has them.
         let mut copper = model.copper.clone();
+        let mut gear = model.gear_friction.clone();
         let mut standby: f64 = model.constant.iter().sum();
         for (param, v) in extra_params(estimate, nb).zip(&consistent.extras) {
             match param {
                 Param::Standby => standby = *v,
                 Param::Copper(i) if i < copper.len() => copper[i] = *v,
+                Param::Gear(i) if i < gear.len() => gear[i] = *v,
                 _ => {}
             }
         }
@@ -83,7 +86,13 @@ impl IdentifiedTwin {
                     0.0
                 },
                 friction: identified.joints()[j].friction,
-                unmodelled: Default::default(),
+                // The model's gear friction loses `g |tau dq|`: Coulomb friction `g |tau|`,
+                // alike in both directions of the power flow.
+                unmodelled: crate::model::drive::Unmodelled {
+                    gear_friction: gear.get(j).copied().unwrap_or(0.0).max(0.0),
+                    gear_friction_braking: gear.get(j).copied().unwrap_or(0.0).max(0.0),
+                    ..Default::default()
+                },
             })
             .collect();
         let drive = Drive::new(&identified, joints)?;
@@ -218,15 +227,20 @@ impl IdentifiedTwin {
     }
 }
 
-/// The estimate a model carries: `z = [theta, c_1..c_n, P0]` with the model's covariance,
-/// copper coefficients of zero variance (held at zero by the fit) left out, the covariance
-/// made positive definite (eigenvalues at least `1e-12` of the largest).
+/// The estimate a model carries: `z = [theta, c_1..c_n, g_1..g_n, P0]` (`g` when the model
+/// has gear friction) with the model's covariance, loss coefficients of zero variance (held
+/// at zero by the fit) left out, the covariance made positive definite (eigenvalues at least
+/// `1e-12` of the largest).
 fn model_estimate(model: &PowerModel) -> Result<Estimate> {
-    let (nb, n) = (model.theta.len(), model.copper.len());
-    let np = nb + n + 1;
+    let (nb, n, ng) = (
+        model.theta.len(),
+        model.copper.len(),
+        model.gear_friction.len(),
+    );
+    let np = model.params();
     if model.covariance.len() != np * np {
         return Err(Error::InvalidInput(format!(
-            "model of '{}' has no parameter covariance ({} entries, expected {np}^2): the identified twin needs a model from identify --method auto, total or pmsm",
+            "model of '{}' has no parameter covariance ({} entries, expected {np}^2): the identified twin needs a model from identify --method auto, total, pmsm or gear",
             model.robot,
             model.covariance.len()
         )));
@@ -235,17 +249,19 @@ fn model_estimate(model: &PowerModel) -> Result<Estimate> {
     let params: Vec<Param> = (0..nb)
         .map(Param::Base)
         .chain((0..n).map(Param::Copper))
+        .chain((0..ng).map(Param::Gear))
         .chain([Param::Standby])
         .collect();
     let z: Vec<f64> = model
         .theta
         .iter()
         .chain(&model.copper)
+        .chain(&model.gear_friction)
         .copied()
         .chain([model.constant.iter().sum()])
         .collect();
     let free: Vec<usize> = (0..np)
-        .filter(|&k| !matches!(params[k], Param::Copper(_)) || cov[(k, k)] > 0.0)
+        .filter(|&k| !matches!(params[k], Param::Copper(_) | Param::Gear(_)) || cov[(k, k)] > 0.0)
         .collect();
     let covariance = DMatrix::from_fn(free.len(), free.len(), |r, c| cov[(free[r], free[c])]);
     let eig = covariance.symmetric_eigen();

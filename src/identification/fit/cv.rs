@@ -44,7 +44,16 @@ pub fn select(
     let mut scores = Vec::new();
     let mut structure = Vec::new();
     let mut full = Vec::new();
+    let with_gear = candidates
+        .iter()
+        .any(|e| e.fits_gear())
+        .then(|| s.with_gear());
     for &est in candidates {
+        // The gear estimator's parameters hold the gear friction (the others' do not).
+        let s = match &with_gear {
+            Some(g) if est.fits_gear() => g,
+            _ => s,
+        };
         let mut totals = Totals::default();
         let mut held: Vec<Piece> = Vec::new();
         // The folds' fits and the fit on all samples (the last), side by side.
@@ -66,7 +75,7 @@ pub fn select(
         if held.is_empty() {
             continue;
         }
-        full.push(all);
+        full.push(Some(all));
         scores.push(CvScore {
             estimator: est,
             mean_power_rms_w: (totals.se_mean / held.len() as f64).sqrt(),
@@ -90,7 +99,13 @@ pub fn select(
         ));
     };
     let chosen = scores[best].estimator;
-    let mut f = full.swap_remove(best)?;
+    let pmsm = scores.iter().position(|c| c.estimator == Estimator::Pmsm);
+    let mut take = |k: usize| full[k].take().expect("each candidate's fit is taken once");
+    let without_gear = match pmsm {
+        Some(k) if chosen == Estimator::Gear => Some(take(k)?),
+        _ => None,
+    };
+    let mut f = take(best)?;
     let StructureError {
         sigma_w,
         rel,
@@ -110,6 +125,7 @@ pub fn select(
         chosen,
         fit: f,
         consistent: None,
+        without_gear,
         motor_power: s.motors,
     })
 }

@@ -1,6 +1,6 @@
 //! One estimator's fit: the linear solution, Levenberg–Marquardt from it for the copper
-//! losses, the rounds of iterated weighting, and the copper coefficients the data cannot tell
-//! from zero held there.
+//! losses (and the gear friction), the rounds of iterated weighting, and the loss
+//! coefficients the data cannot tell from zero held there.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -22,7 +22,7 @@ const WLS_ITERATIONS: usize = 2;
 /// Fit `estimator` on the samples for which `use_sample(m)` and the sample's fit flag hold,
 /// weighted by `weighting` (iterated: each weighting from the previous fit's residuals).
 /// `template` gives the robot's base-parameter set (its values are ignored). The covariance
-/// is the weighted one (the model's, where [`Estimator::Pmsm`] holds copper coefficients at
+/// is the weighted one (the model's, where a nonlinear estimator holds loss coefficients at
 /// zero, the free fit's); `residual_rms` stays the unweighted RMS in W of the arm's power (not
 /// the motors').
 pub fn fit(
@@ -35,7 +35,7 @@ pub fn fit(
     fit_inner(template, s, estimator, weighting, use_sample, true)
 }
 
-/// [`fit`] with every copper coefficient free (none held at zero for want of significance)
+/// [`fit`] with every loss coefficient free (none held at zero for want of significance)
 /// and without statistics (zero covariance): the least cost and its `residual_rms` alone, for
 /// a search that only compares residuals.
 pub(super) fn fit_free(
@@ -56,6 +56,14 @@ fn fit_inner(
     use_sample: &dyn Fn(usize) -> bool,
     full: bool,
 ) -> Result<Fit> {
+    // The gear estimator's parameters hold the gear friction.
+    let with_gear;
+    let s = if estimator.fits_gear() && !s.gear {
+        with_gear = s.with_gear();
+        &with_gear
+    } else {
+        s
+    };
     let rows: Vec<usize> = (0..s.len())
         .filter(|&m| s.fit[m] && use_sample(m))
         .collect();
@@ -63,7 +71,7 @@ fn fit_inner(
     // least cost a little); the first from the linear solution. From the linear solution
     // every round, a bus signal's fit (the clip makes its cost kinked) crawls tens of
     // iterations back to where the last round ended.
-    let run = |zero_copper: &[bool], start: Option<&[f64]>| -> Result<Fit> {
+    let run = |zero_loss: &[bool], start: Option<&[f64]>| -> Result<Fit> {
         let mut weights = vec![1.0; rows.len()];
         let rounds = if weighting == Weighting::None {
             0
@@ -71,7 +79,7 @@ fn fit_inner(
             WLS_ITERATIONS
         };
         let one = |weights: &[f64], z: Option<&[f64]>, statistics: bool| {
-            let start = Start { zero_copper, z };
+            let start = Start { zero_loss, z };
             fit_weighted(template, s, estimator, &rows, weights, start, statistics)
         };
         let mut start = start.map(|z| z.to_vec());
@@ -84,22 +92,24 @@ fn fit_inner(
         }
         one(&weights, start.as_deref(), full)
     };
-    let f = run(&vec![false; s.n], None)?;
-    if estimator != Estimator::Pmsm || !full {
+    let layout = s.layout();
+    let f = run(&vec![false; layout.len()], None)?;
+    if estimator == Estimator::Total || !full {
         return Ok(f);
     }
-    // Copper coefficients without a prior that the data cannot tell from zero (on the bound,
+    // Loss coefficients without a prior that the data cannot tell from zero (on the bound,
     // or within tuning::COPPER_SIGNIFICANCE standard deviations of it) are held at zero and
     // the rest refitted: left free, they trade against the standby power and each other along
     // directions the data barely see, and predict other motions far off
-    // (docs/experiments.md#copper-coefficients-held-at-zero; tests/consistent.rs). One with
-    // the drive file's value as a prior stays free: the prior holds it where the data do not.
-    let weak: Vec<bool> = (0..s.n)
-        .map(|i| {
-            let k = s.nb + i;
-            !s.copper_has_prior(i)
-                && f.estimate.values[k]
-                    <= tuning::COPPER_SIGNIFICANCE * f.covariance[(k, k)].max(0.0).sqrt()
+    // (docs/experiments.md#copper-coefficients-held-at-zero; tests/consistent.rs). A
+    // coefficient with the drive file's value as a prior stays free: the prior holds it where
+    // the data do not.
+    let weak: Vec<bool> = (0..layout.len())
+        .map(|k| {
+            layout.is_loss(k)
+                && f.covariance[(k, k)] > 0.0
+                && !s.loss_has_prior(k)
+                && f.estimate.values[k] <= tuning::COPPER_SIGNIFICANCE * f.covariance[(k, k)].sqrt()
         })
         .collect();
     if !weak.iter().any(|&w| w) {
@@ -117,7 +127,7 @@ fn fit_inner(
     Ok(held)
 }
 
-/// The linear problem without copper loss on the samples `rows` (weights `weights`):
+/// The linear problem without copper loss and gear friction on the samples `rows` (weights `weights`):
 /// `y - dq . tau_known = (dq^T W_b) theta + P0` for the arm, `y - dq_i tau_known,i =
 /// (dq_i W_b,i) theta + P0_i` for motor `i`, rows times the square roots of the weights, the
 /// arm's clipped samples left out.
@@ -129,7 +139,7 @@ fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
         .filter(|(m, _)| !s.clipped || s.motor[**m].is_some() || s.y[**m] > CLIPPED_BELOW_W)
         .map(|(m, w)| (*m, w.sqrt()))
         .collect();
-    let to_z: Vec<usize> = (0..nb).chain(nb + n..np).collect();
+    let to_z: Vec<usize> = (0..nb).chain(s.layout().losses().end..np).collect();
     let mut a = DMatrix::zeros(lin.len(), to_z.len());
     let mut y = DVector::zeros(lin.len());
     for (r, &(m, sw)) in lin.iter().enumerate() {
@@ -151,7 +161,8 @@ fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
             }
             known_power += joints.clone().map(|i| v[i] * known[i]).sum::<f64>() / span as f64;
         }
-        a[(r, s.constant(m) - n)] = sw;
+        let standby = to_z.binary_search(&s.constant(m));
+        a[(r, standby.expect("every standby power is a column"))] = sw;
         y[r] = sw * (s.y[m] - known_power);
     }
     LinearDesign { lin, to_z, a, y }
@@ -161,7 +172,7 @@ fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
 struct LinearDesign {
     /// The rows used: sample and square root of its weight.
     lin: Vec<(usize, f64)>,
-    /// Each column's index in `z` (all but the copper coefficients).
+    /// Each column's index in `z` (all but the loss coefficients).
     to_z: Vec<usize>,
     /// The weighted design.
     a: DMatrix<f64>,
@@ -172,15 +183,15 @@ struct LinearDesign {
 /// Where a weighted fit's Levenberg–Marquardt starts and what it holds.
 #[derive(Clone, Copy)]
 struct Start<'a> {
-    /// The copper coefficients held at zero.
-    zero_copper: &'a [bool],
-    /// The `z` to start from (held copper coefficients set to zero); `None`: the linear
+    /// The loss coefficients held at zero (by index in `z`).
+    zero_loss: &'a [bool],
+    /// The `z` to start from (held loss coefficients set to zero); `None`: the linear
     /// solution.
     z: Option<&'a [f64]>,
 }
 
 /// One weighted fit of `estimator` on the samples `rows` with weights `weights` (one per
-/// row), Levenberg–Marquardt ([`Estimator::Pmsm`]) from `start`. Without `statistics` the
+/// row), Levenberg–Marquardt (the nonlinear estimators) from `start`. Without `statistics` the
 /// fit's covariance is left zero and its estimate holds only the values (for a round of
 /// iterated weighting, which needs only the residuals).
 fn fit_weighted(
@@ -192,8 +203,8 @@ fn fit_weighted(
     start: Start,
     statistics: bool,
 ) -> Result<Fit> {
-    let zero_copper = start.zero_copper;
-    let (n, nb, np) = (s.n, s.nb, s.params());
+    let zero_loss = start.zero_loss;
+    let np = s.params();
     let LinearDesign { lin, to_z, a, y } = linear_design(s, rows, weights);
     let layout = s.layout();
     let names = layout.names(&template.names);
@@ -233,10 +244,15 @@ fn fit_weighted(
             }
             (est, cov)
         }
-        Estimator::Pmsm => {
-            // Everything but the copper coefficients held at zero.
+        Estimator::Pmsm | Estimator::Gear => {
+            // Everything but the loss coefficients held at zero and those the estimator
+            // does not fit.
             let free: Vec<bool> = (0..np)
-                .map(|k| k < nb || k >= nb + n || !zero_copper[k - nb])
+                .map(|k| match layout.param(k) {
+                    Param::Copper(_) => !zero_loss[k],
+                    Param::Gear(_) => estimator.fits_gear() && !zero_loss[k],
+                    _ => true,
+                })
                 .collect();
             if let Some(start) = start.z {
                 for k in 0..np {
@@ -251,25 +267,7 @@ fn fit_weighted(
             }
         }
     };
-    let mut model = template.clone();
-    model.efficiency_scaled = false;
-    model.theta.copy_from_slice(z.rows(0, nb).as_slice());
-    model.copper.copy_from_slice(z.rows(nb, n).as_slice());
-    model.constant.fill(0.0);
-    model.constant[0] = z[np - 1];
-    model.signal = if s.clipped {
-        crate::measurement::PowerSignal::Bus
-    } else {
-        crate::measurement::PowerSignal::Total
-    };
-    // The model's parameters are `[theta, c, P0]`: the motors' own standby powers only
-    // served the fit (their marginal is dropped).
-    let kept: Vec<usize> = (0..nb + n).chain([np - 1]).collect();
-    model.covariance = DMatrix::from_fn(kept.len(), kept.len(), |r, c| {
-        covariance[(kept[r], kept[c])]
-    })
-    .as_slice()
-    .to_vec();
+    let model = fitted_model(template, s, estimator, &z, &covariance);
     // The residual in W (unweighted) of the arm's power over the fitted samples.
     let arm: Vec<usize> = rows
         .iter()
@@ -292,6 +290,43 @@ fn fit_weighted(
         covariance,
         layout,
     })
+}
+
+/// The model of `estimator`'s parameters `z` (with their `covariance`) on the samples `s`:
+/// `[theta, c, g, P0]` (`g` only when the estimator fits it) and their covariance; the motors'
+/// own standby powers only served the fit (their marginal is dropped).
+fn fitted_model(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    z: &DVector<f64>,
+    covariance: &DMatrix<f64>,
+) -> PowerModel {
+    let (n, nb, np) = (s.n, s.nb, s.params());
+    let mut model = template.clone();
+    model.efficiency_scaled = false;
+    model.theta.copy_from_slice(z.rows(0, nb).as_slice());
+    model.copper.copy_from_slice(z.rows(nb, n).as_slice());
+    model.gear_friction = if estimator.fits_gear() {
+        z.rows(nb + n, n).as_slice().to_vec()
+    } else {
+        Vec::new()
+    };
+    model.constant.fill(0.0);
+    model.constant[0] = z[np - 1];
+    model.signal = if s.clipped {
+        crate::measurement::PowerSignal::Bus
+    } else {
+        crate::measurement::PowerSignal::Total
+    };
+    let loss_end = nb + n + model.gear_friction.len();
+    let kept: Vec<usize> = (0..loss_end).chain([np - 1]).collect();
+    model.covariance = DMatrix::from_fn(kept.len(), kept.len(), |r, c| {
+        covariance[(kept[r], kept[c])]
+    })
+    .as_slice()
+    .to_vec();
+    model
 }
 
 /// Levenberg-Marquardt of the PMSM fit from `z`, in place, moving the parameters `free`
@@ -319,15 +354,13 @@ fn posterior_mode<'a>(
 }
 
 impl Fit {
-    /// The estimated values only (for [`Estimator::Total`] without the copper coefficients it
-    /// holds at zero), with their names and covariance.
+    /// The estimated values only (without the loss coefficients the estimator holds at
+    /// zero), with their names and covariance.
     pub fn free_estimate(&self) -> Estimate {
         let layout = self.layout;
         let np = layout.len();
         let free: Vec<usize> = (0..np)
-            .filter(|&k| {
-                !matches!(layout.param(k), Param::Copper(_)) || self.covariance[(k, k)] > 0.0
-            })
+            .filter(|&k| !layout.is_loss(k) || self.covariance[(k, k)] > 0.0)
             .collect();
         let names = layout.names(&self.model.names);
         let pick = |v: &[f64]| free.iter().map(|&k| v[k]).collect::<Vec<f64>>();

@@ -68,15 +68,38 @@ pub enum Estimator {
     Total,
     /// Base parameters, copper-loss coefficients and a constant, nonlinear.
     Pmsm,
+    /// [`Estimator::Pmsm`] with load-dependent gear friction: a loss `g_i |tau_i dq_i|` per
+    /// joint, a fraction of the power transmitted (Coulomb friction that grows with the
+    /// torque, as in harmonic and cycloidal drives), nonlinear.
+    Gear,
 }
 
 impl Estimator {
+    /// The estimators `--method auto` chooses among by cross-validation: `total` and
+    /// `pmsm`. [`Estimator::Gear`] is asked for by name: on the family of truths it is more
+    /// accurate than `pmsm`, but on the single-truth benchmark less
+    /// (docs/experiments.md#load-dependent-gear-friction-in-the-model).
+    pub fn auto() -> Vec<Estimator> {
+        vec![Estimator::Total, Estimator::Pmsm]
+    }
+
     /// Lower-case name.
     pub fn name(self) -> &'static str {
         match self {
             Estimator::Total => "total",
             Estimator::Pmsm => "pmsm",
+            Estimator::Gear => "gear",
         }
+    }
+
+    /// Whether the estimator fits the copper-loss coefficients.
+    pub fn fits_copper(self) -> bool {
+        self != Estimator::Total
+    }
+
+    /// Whether the estimator fits the gear-friction coefficients.
+    pub fn fits_gear(self) -> bool {
+        self == Estimator::Gear
     }
 }
 
@@ -147,6 +170,11 @@ pub struct Selection {
     pub fit: Fit,
     /// The consistent projection of the fit, when asked for.
     pub consistent: Option<crate::identification::consistent::Consistent>,
+    /// When [`Estimator::Gear`] is chosen and [`Estimator::Pmsm`] was a candidate: the
+    /// `pmsm` fit on all samples, the same model without the gear-friction term. Its
+    /// predictions' disagreement with the chosen model's widens the intervals
+    /// ([`PowerModel::without_gear`]).
+    pub without_gear: Option<Fit>,
     /// Whether each motor's logged power was fitted besides the arm's.
     pub motor_power: bool,
 }
@@ -197,7 +225,7 @@ impl Default for FitOptions {
             min_speed: tuning::MIN_SPEED,
             max_fit_rate_hz: tuning::MAX_FIT_RATE_HZ,
             folds: tuning::FOLDS,
-            candidates: vec![Estimator::Total, Estimator::Pmsm],
+            candidates: Estimator::auto(),
             weighting: tuning::WEIGHTING,
             consistent: tuning::CONSISTENT,
             motor_power: tuning::MOTOR_POWER,

@@ -61,7 +61,8 @@ fn weighted_residuals(
 /// Levenberg–Marquardt on the samples `rows` with `weights` (one per row) from `z` (the
 /// linear solution), in place; only the parameters marked in `free` move (all when `None`).
 /// The shared loop ([`crate::numerics::lm`]) with Marquardt's damping (the diagonal of
-/// `J^T J` scaled), copper coefficients kept >= 0 by an active set and projection, and a
+/// `J^T J` scaled), loss coefficients (copper, gear friction) kept >= 0 by an active set and
+/// projection, and a
 /// stop when a step lowers the cost by less than [`CONVERGED_CHI2`] residual variances.
 ///
 /// With a `prior` (on `z`, with the rows' noise variance `s^2`), its rows `s root (z - mean)`
@@ -197,15 +198,15 @@ impl lm::Problem for PowerFit<'_> {
             self.jtj += p.root.transpose() * &p.root;
             self.g += p.root.transpose() * p.residuals(self.z);
         }
-        // Held this iteration: the fixed parameters, and the copper coefficients on their
+        // Held this iteration: the fixed parameters, and the loss coefficients on their
         // bound (0) that the gradient pushes below it (the active set). Projecting a full
         // Gauss-Newton step instead spoils it for every parameter correlated with the bound
         // one, and the iteration crawls.
         let held: Vec<bool> = (0..np)
             .map(|k| {
                 let fixed = self.free.is_some_and(|f| !f[k]);
-                let copper = (s.nb..s.nb + s.n).contains(&k);
-                fixed || (copper && self.z[k] <= 0.0 && self.g[k] > 0.0)
+                let loss = s.layout().is_loss(k);
+                fixed || (loss && self.z[k] <= 0.0 && self.g[k] > 0.0)
             })
             .collect();
         lm::hold(&mut self.jtj, &mut self.g, &held);
@@ -220,9 +221,10 @@ impl lm::Problem for PowerFit<'_> {
         let chol = a.cholesky()?;
         let step = chol.solve(&(-&self.g));
         let mut trial = &*self.z + &step;
-        // Copper-loss coefficients are resistances: kept >= 0 (projected).
-        for i in 0..s.n {
-            trial[s.nb + i] = trial[s.nb + i].max(0.0);
+        // Copper-loss coefficients are resistances and gear friction dissipates: both kept
+        // >= 0 (projected).
+        for k in s.layout().losses() {
+            trial[k] = trial[k].max(0.0);
         }
         let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared()
             + self.prior.as_ref().map_or(0.0, |p| p.cost(&trial));

@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 
 use super::refit::refit_losses;
-use super::{FitOptions, Selection, samples::Samples, select};
+use super::{Estimator, Fit, FitOptions, Selection, samples::Samples, select};
 use crate::error::{Error, Result};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::PowerModel;
@@ -80,24 +80,18 @@ pub fn identify_logs(
     };
     let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
     if opts.consistent {
-        let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));
-        let estimate = regularised(selection.fit.free_estimate());
-        let (model, consistent) = crate::identification::consistent::constrain(
-            robot,
-            &selection.fit.model,
-            &estimate,
-            &prior,
-            &crate::identification::consistent::Options::default(),
-        )?;
-        selection.fit.model = refit_losses(
-            &samples,
-            &selection.fit,
-            model,
-            selection.chosen,
-            opts.weighting,
-        )?;
+        let (model, consistent) =
+            consistent_model(robot, &samples, &selection.fit, selection.chosen, opts)?;
+        selection.fit.model = model;
         selection.consistent = Some(consistent);
+        if let Some(alt) = &mut selection.without_gear {
+            alt.model = consistent_model(robot, &samples, alt, Estimator::Pmsm, opts)?.0;
+        }
     }
+    selection.fit.model.without_gear = selection
+        .without_gear
+        .as_ref()
+        .map(|alt| Box::new(alt.model.clone()));
     selection.fit.model.power_lag_s = lag;
     selection.fit.model.lowest_seen = samples.lowest_seen();
     selection.fit.model.payload_seen = Some(
@@ -108,6 +102,34 @@ pub fn identify_logs(
             .fold(0.0, f64::max),
     );
     Ok(selection)
+}
+
+/// The model of `fit` (by `estimator`) made physically consistent
+/// ([`crate::identification::consistent::constrain`]; the URDF decides what the data cannot
+/// see), its loss terms refitted on the samples, with the projection.
+fn consistent_model(
+    robot: &Robot,
+    samples: &Samples,
+    fit: &Fit,
+    estimator: Estimator,
+    opts: &FitOptions,
+) -> Result<(PowerModel, crate::identification::consistent::Consistent)> {
+    let layout = fit.model.layout;
+    let prior = layout.theta(robot, &crate::dynamics::DriveTerms::from_urdf(robot));
+    let estimate = regularised(fit.free_estimate());
+    let (model, consistent) = crate::identification::consistent::constrain(
+        robot,
+        &fit.model,
+        &estimate,
+        &prior,
+        &crate::identification::consistent::Options::default(),
+    )?;
+    let model = if estimator.fits_gear() {
+        refit_losses(&samples.with_gear(), fit, model, estimator, opts.weighting)?
+    } else {
+        refit_losses(samples, fit, model, estimator, opts.weighting)?
+    };
+    Ok((model, consistent))
 }
 
 /// The estimate with its covariance made positive definite for the consistent projection:

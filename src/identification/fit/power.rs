@@ -16,43 +16,31 @@ impl Samples {
         }
         let (n, nb) = (self.n, self.nb);
         let p0 = z[self.constant(m)];
-        let z = z.as_slice();
-        let (theta, copper) = (&z[..nb], &z[nb..nb + n]);
+        let losses = Losses::of(z.as_slice(), nb, n, self.gear);
         let (wb, v, known) = self.state_rows(self.state[m]);
-        let tau = |i: usize| torque(wb, known, theta, i);
+        let tau = |i: usize| torque(wb, known, losses.theta, i);
         if let Some(i) = self.motor[m] {
-            let t = tau(i);
+            let j = losses.joint(i, v[i], tau(i));
             if let Some(g) = grad {
                 g.fill(0.0);
-                let d = v[i] + 2.0 * copper[i] * t;
-                for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
-                    *gk = d * a;
-                }
-                g[nb + i] = t * t;
+                j.add_gradient(g, wb, nb, n, i, 1.0);
                 g[self.constant(m)] = 1.0;
             }
-            return p0 + (v[i] + copper[i] * t) * t;
+            return p0 + j.power;
         }
         let Some(g) = grad else {
             let p = p0
                 + (0..n)
-                    .map(|i| {
-                        let t = tau(i);
-                        (v[i] + copper[i] * t) * t
-                    })
+                    .map(|i| losses.joint(i, v[i], tau(i)).power)
                     .sum::<f64>();
             return if self.clipped && p < 0.0 { 0.0 } else { p };
         };
         g.fill(0.0);
         let mut p = p0;
-        for i in 0..n {
-            let t = tau(i);
-            p += (v[i] + copper[i] * t) * t;
-            let d = v[i] + 2.0 * copper[i] * t;
-            for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
-                *gk += d * a;
-            }
-            g[nb + i] = t * t;
+        for (i, &dq) in v.iter().enumerate() {
+            let j = losses.joint(i, dq, tau(i));
+            p += j.power;
+            j.add_gradient(g, wb, nb, n, i, 1.0);
         }
         g[self.constant(m)] = 1.0;
         if self.clipped && p < 0.0 {
@@ -71,8 +59,7 @@ impl Samples {
         let w = 1.0 / span as f64;
         let c0 = self.constant(m);
         let p0 = z[c0];
-        let zs = z.as_slice();
-        let (theta, copper) = (&zs[..nb], &zs[nb..nb + n]);
+        let losses = Losses::of(z.as_slice(), nb, n, self.gear);
         if let Some(g) = grad.as_deref_mut() {
             g.fill(0.0);
         }
@@ -90,14 +77,10 @@ impl Samples {
                 let mut p = p0;
                 let mut g = g;
                 for i in joints.clone() {
-                    let t = torque(wb, known, theta, i);
-                    p += (v[i] + copper[i] * t) * t;
+                    let j = losses.joint(i, v[i], torque(wb, known, losses.theta, i));
+                    p += j.power;
                     if let Some(g) = g.as_deref_mut() {
-                        let d = w * (v[i] + 2.0 * copper[i] * t);
-                        for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
-                            *gk += d * a;
-                        }
-                        g[nb + i] += w * t * t;
+                        j.add_gradient(g, wb, nb, n, i, w);
                     }
                 }
                 if let Some(g) = g {
@@ -135,4 +118,143 @@ fn torque(wb: &[f64], known: &[f64], theta: &[f64], i: usize) -> f64 {
     let nb = theta.len();
     let row = &wb[i * nb..(i + 1) * nb];
     row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
+}
+
+/// The parameters of `z` one joint's power needs: the base parameters, and the copper and
+/// (when the parameters hold them) gear-friction coefficients.
+struct Losses<'a> {
+    theta: &'a [f64],
+    copper: &'a [f64],
+    gear: Option<&'a [f64]>,
+}
+
+impl<'a> Losses<'a> {
+    /// The slices of `z = [theta, c, g, ..]` (`nb` base parameters, `n` joints, `g` when
+    /// `gear`).
+    fn of(z: &'a [f64], nb: usize, n: usize, gear: bool) -> Self {
+        Losses {
+            theta: &z[..nb],
+            copper: &z[nb..nb + n],
+            gear: gear.then(|| &z[nb + n..nb + 2 * n]),
+        }
+    }
+
+    /// Joint `i`'s power at speed `dq` (rad/s) and torque `tau` (N m):
+    /// `dq tau + c tau^2 + g |dq tau|`.
+    fn joint(&self, i: usize, dq: f64, tau: f64) -> JointPower {
+        let c = self.copper[i];
+        let mech = dq * tau;
+        let (power, dp_dtau) = (mech + c * tau * tau, dq + 2.0 * c * tau);
+        match self.gear {
+            Some(g) => JointPower {
+                power: power + g[i] * mech.abs(),
+                dp_dtau: dp_dtau + g[i] * sign(mech) * dq,
+                tau,
+                mech_abs: Some(mech.abs()),
+            },
+            None => JointPower {
+                power,
+                dp_dtau,
+                tau,
+                mech_abs: None,
+            },
+        }
+    }
+}
+
+/// One joint's power and what its gradient needs.
+struct JointPower {
+    /// `dq tau + c tau^2 + g |dq tau|`, W.
+    power: f64,
+    /// Its derivative in the torque, W/(N m).
+    dp_dtau: f64,
+    /// The torque, N m.
+    tau: f64,
+    /// `|dq tau|`, W: the derivative in the gear-friction coefficient (`None` without it).
+    mech_abs: Option<f64>,
+}
+
+impl JointPower {
+    /// Add `w` times this power's gradient in `z` to `g` (joint `i`'s regressor row in `wb`,
+    /// `nb` base parameters, `n` joints).
+    fn add_gradient(&self, g: &mut [f64], wb: &[f64], nb: usize, n: usize, i: usize, w: f64) {
+        let d = w * self.dp_dtau;
+        for (gk, a) in g[..nb].iter_mut().zip(&wb[i * nb..(i + 1) * nb]) {
+            *gk += d * a;
+        }
+        g[nb + i] += w * self.tau * self.tau;
+        if let Some(a) = self.mech_abs {
+            g[nb + n + i] += w * a;
+        }
+    }
+}
+
+/// The sign of `x`, 0 at 0 (the subgradient of `|x|` the fit takes there).
+fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::samples::PieceId;
+    use super::*;
+
+    /// Two joints, two base parameters, two states; observation 0 the arm's power at state 0,
+    /// 1 motor 2's there, 2 the arm's averaged over both states.
+    fn samples() -> Samples {
+        Samples {
+            n: 2,
+            nb: 2,
+            wb: vec![0.7, -1.3, 0.4, 2.1, -0.5, 0.9, 1.6, 0.3],
+            dq: vec![1.2, -0.8, -0.6, 1.5],
+            tau_known: vec![0.3, -0.2, 0.0, 0.5],
+            state: vec![0, 0, 0],
+            span: vec![1, 1, 2],
+            motor: vec![None, Some(1), None],
+            motors: true,
+            gear: true,
+            series: vec![0, 1, 0],
+            y: vec![1.0, 2.0, 3.0],
+            fit: vec![true; 3],
+            piece: vec![PieceId { log: 0, block: 0 }; 3],
+            fold: vec![0; 3],
+            folds: 1,
+            clipped: false,
+            prior: None,
+        }
+    }
+
+    #[test]
+    fn the_power_gradient_is_the_power_models_derivative() {
+        let s = samples();
+        // z = [theta (2), c (2), g (2), P0_1, P0_2, P0].
+        let z = DVector::from_vec(vec![3.0, -2.0, 0.02, 0.05, 0.03, 0.01, 1.5, 2.5, 7.0]);
+        for m in 0..s.len() {
+            let mut g = vec![0.0; z.len()];
+            let p = s.power(m, &z, Some(&mut g));
+            assert!((p - s.power(m, &z, None)).abs() < 1e-12);
+            for k in 0..z.len() {
+                let h = 1e-6;
+                let (mut up, mut down) = (z.clone(), z.clone());
+                up[k] += h;
+                down[k] -= h;
+                let fd = (s.power(m, &up, None) - s.power(m, &down, None)) / (2.0 * h);
+                assert!(
+                    (fd - g[k]).abs() < 1e-6 * (1.0 + fd.abs()),
+                    "observation {m}, parameter {k}: gradient {} against {fd}",
+                    g[k]
+                );
+            }
+        }
+        // Motor 2 at state 0: tau = 0.4 * 3 + 2.1 * (-2) - 0.2 = -3.2 N m at -0.8 rad/s.
+        let (tau, dq): (f64, f64) = (-3.2, -0.8);
+        let expected = dq * tau + 0.05 * tau * tau + 0.01 * (dq * tau).abs() + 2.5;
+        assert!((s.power(1, &z, None) - expected).abs() < 1e-12);
+    }
 }

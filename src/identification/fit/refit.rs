@@ -10,10 +10,10 @@ use crate::identification::model::PowerModel;
 
 /// The loss terms refitted on the arm's power with the base parameters of `model` (e.g.
 /// physically consistent ones) held, from the values of `fitted` (the fit `model` came
-/// from): the copper coefficients `fitted` estimated (for [`Estimator::Pmsm`], kept >= 0;
-/// those it held at zero stay there) and the standby power, by Levenberg–Marquardt with the
-/// samples weighted by `weighting` (and the copper coefficients' prior, if any). The
-/// projection moves the loss terms only along their correlation with the base parameters;
+/// from): the loss coefficients `fitted` estimated (copper, and gear friction for
+/// [`Estimator::Gear`]; kept >= 0, those it held at zero stay there) and the standby power,
+/// by Levenberg–Marquardt with the samples weighted by `weighting` (and the copper
+/// coefficients' prior, if any). The projection moves the loss terms only along their correlation with the base parameters;
 /// the data decide them once those are fixed. The model predicts the arm's power, so its
 /// losses are refitted on the arm's power alone
 /// (docs/experiments.md#losses-refitted-on-the-arms-power).
@@ -31,15 +31,16 @@ pub(super) fn refit_losses(
     let mut z = DVector::from_column_slice(&fitted.estimate.values);
     z.rows_mut(0, nb).copy_from_slice(&model.theta);
     z.rows_mut(nb, n).copy_from_slice(&model.copper);
+    if estimator.fits_gear() {
+        z.rows_mut(nb + n, n).copy_from_slice(&model.gear_friction);
+    }
     z[np - 1] = model.constant.iter().sum();
-    // A copper coefficient held at zero freed here trades against the standby, as in `fit`
-    // (docs/experiments.md#copper-coefficients-held-at-zero).
+    // A loss coefficient held at zero freed here trades against the standby, as in `fit`
+    // (docs/experiments.md#copper-coefficients-held-at-zero). The fit's covariance is zero
+    // for every coefficient the estimator held or does not fit.
+    let layout = s.layout();
     let free: Vec<bool> = (0..np)
-        .map(|k| {
-            let copper = k >= nb && k < nb + n;
-            k == np - 1
-                || (copper && estimator == Estimator::Pmsm && fitted.covariance[(k, k)] > 0.0)
-        })
+        .map(|k| k == np - 1 || (layout.is_loss(k) && fitted.covariance[(k, k)] > 0.0))
         .collect();
     let weights = match weighting {
         Weighting::None => vec![1.0; rows.len()],
@@ -53,6 +54,9 @@ pub(super) fn refit_losses(
     let prior = prior.as_ref().map(|p| (p, s2));
     levenberg_marquardt(s, &rows, &weights, Some(&free), prior, &mut z)?;
     model.copper.copy_from_slice(z.rows(nb, n).as_slice());
+    if estimator.fits_gear() {
+        model.gear_friction = z.rows(nb + n, n).as_slice().to_vec();
+    }
     model.constant.fill(0.0);
     model.constant[0] = z[np - 1];
     Ok(model)

@@ -45,6 +45,7 @@ struct PayloadSpan {
 /// payload torques; per observation (the arm's power at a state, or one motor's power there
 /// when the logs have it and the fit uses it) the measured power and the cross-validation
 /// block.
+#[derive(Clone)]
 pub struct Samples {
     pub(super) n: usize,
     pub(super) nb: usize,
@@ -64,6 +65,9 @@ pub struct Samples {
     pub(super) motor: Vec<Option<usize>>,
     /// Whether the parameters hold a standby power per motor (the logs' motor power is fitted).
     pub(super) motors: bool,
+    /// Whether the parameters hold a gear-friction coefficient per joint
+    /// ([`Samples::with_gear`]).
+    pub(super) gear: bool,
     /// Series of each observation: one measured signal of one log, in time order (the
     /// residuals of neighbours in a series are correlated).
     pub(super) series: Vec<usize>,
@@ -131,6 +135,7 @@ impl Samples {
             span: Vec::new(),
             motor: Vec::new(),
             motors: motor_power,
+            gear: false,
             series: Vec::new(),
             y: Vec::new(),
             fit: Vec::new(),
@@ -256,6 +261,7 @@ impl Samples {
             span: vec![1; len],
             motor: vec![None; len],
             motors: false,
+            gear: false,
             series: vec![0; len],
             y: p.to_vec(),
             fit: vec![true; len],
@@ -271,7 +277,8 @@ impl Samples {
     /// (the data decide the directions they determine, the prior the rest). Errors: a prior
     /// of another base-parameter count.
     pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
-        if prior.mean.len() != self.nb || prior.copper.len() != self.n {
+        if prior.mean.len() != self.nb || prior.copper.len() != self.n || prior.gear.len() != self.n
+        {
             return Err(Error::InvalidInput(format!(
                 "prior of {} base parameters and {} joints for a model of {} and {}",
                 prior.mean.len(),
@@ -285,33 +292,40 @@ impl Samples {
     }
 
     /// The prior of the parameters `z` (zero columns for those without one), if any: the
-    /// base parameters' rows, then a row per copper-loss coefficient with a prior.
+    /// base parameters' rows, then a row per loss coefficient (copper, gear friction) with a
+    /// prior.
     pub(super) fn z_prior(&self) -> Option<ColumnPrior> {
         let prior = self.prior.as_ref()?;
         let np = self.params();
-        let copper: Vec<(usize, Normal)> = prior
-            .copper
-            .iter()
-            .enumerate()
-            .filter_map(|(i, c)| c.map(|c| (i, c)))
+        // The loss coefficients with a prior: their index in `z` and the prior.
+        let layout = self.layout();
+        let gear = if layout.gear { &prior.gear[..] } else { &[] };
+        let losses: Vec<(usize, Normal)> = (prior.copper.iter().enumerate())
+            .filter_map(|(i, c)| c.map(|c| (layout.copper(i), c)))
+            .chain((gear.iter().enumerate()).filter_map(|(i, g)| g.map(|g| (layout.gear(i), g))))
             .collect();
-        let mut root = DMatrix::zeros(self.nb + copper.len(), np);
+        let mut root = DMatrix::zeros(self.nb + losses.len(), np);
         root.view_mut((0, 0), (self.nb, self.nb))
             .copy_from(&prior.root_precision);
         let mut mean = DVector::zeros(np);
         mean.rows_mut(0, self.nb).copy_from_slice(&prior.mean);
-        for (r, &(i, c)) in copper.iter().enumerate() {
-            root[(self.nb + r, self.nb + i)] = 1.0 / c.std;
-            mean[self.nb + i] = c.mean;
+        for (r, &(k, c)) in losses.iter().enumerate() {
+            root[(self.nb + r, k)] = 1.0 / c.std;
+            mean[k] = c.mean;
         }
         Some(ColumnPrior { root, mean })
     }
 
-    /// Whether joint `i`'s copper-loss coefficient has a prior.
-    pub(super) fn copper_has_prior(&self, i: usize) -> bool {
-        self.prior
-            .as_ref()
-            .is_some_and(|p| p.copper.get(i).is_some_and(|c| c.is_some()))
+    /// Whether entry `k` of `z` is a loss coefficient with a prior (copper or gear friction).
+    pub(super) fn loss_has_prior(&self, k: usize) -> bool {
+        let Some(p) = &self.prior else {
+            return false;
+        };
+        match self.layout().param(k) {
+            super::Param::Copper(i) => p.copper.get(i).is_some_and(|c| c.is_some()),
+            super::Param::Gear(i) => p.gear.get(i).is_some_and(|g| g.is_some()),
+            _ => false,
+        }
     }
 
     /// Number of observations.
@@ -324,13 +338,25 @@ impl Samples {
         self.y.is_empty()
     }
 
-    /// Layout of the parameters `z = [theta, c_1..c_n, P0_1..P0_n, P0]` (the motors' own
-    /// standby powers `P0_i` only when their power is observed).
+    /// Layout of the parameters `z = [theta, c_1..c_n, g_1..g_n, P0_1..P0_n, P0]` (the gear
+    /// friction `g_i` only [`Samples::with_gear`], the motors' own standby powers `P0_i` only
+    /// when their power is observed).
     pub(super) fn layout(&self) -> Layout {
         Layout {
             base: self.nb,
             joints: self.n,
             motors: self.motors,
+            gear: self.gear,
+        }
+    }
+
+    /// The same samples for the `gear` estimator: the parameters then hold a gear-friction
+    /// coefficient per joint. (The others' fits leave them out, so that their every
+    /// evaluation does not carry them.)
+    pub(super) fn with_gear(&self) -> Samples {
+        Samples {
+            gear: true,
+            ..self.clone()
         }
     }
 
