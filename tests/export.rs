@@ -249,6 +249,27 @@ fn identify_exports_the_identified_robot() {
         );
     }
     assert!(g.iter().any(|v| *v > 0.0), "{g:?}");
+    // Its prediction says what it predicts without the gear friction, and the interval holds
+    // the difference.
+    let data = common::tmp("ds300");
+    let (code, out, err) = common::run(&[
+        "predict",
+        "--model",
+        model.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--base-freq",
+        "0.1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let p: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let (e, without) = (p["predicted_J"].as_f64(), p["without_gear_J"].as_f64());
+    let (e, without) = (e.unwrap(), without.expect("without_gear_J"));
+    assert!(
+        p["interval_95_J"].as_f64().unwrap() >= 1.96 * (e - without).abs(),
+        "{p}"
+    );
     // A step-by-step model (scaled by 1/efficiency, no joint covariance) cannot be exported.
     std::fs::remove_file(&urdf).unwrap();
     let total = argv("paper-steps");
