@@ -44,16 +44,8 @@ pub fn select(
     let mut scores = Vec::new();
     let mut structure = Vec::new();
     let mut full = Vec::new();
-    let with_gear = candidates
-        .iter()
-        .any(|e| e.fits_gear())
-        .then(|| s.with_gear());
     for &est in candidates {
-        // The gear estimator's parameters hold the gear friction (the others' do not).
-        let s = match &with_gear {
-            Some(g) if est.fits_gear() => g,
-            _ => s,
-        };
+        let s = &*s.for_estimator(est);
         let mut totals = Totals::default();
         let mut held: Vec<Piece> = Vec::new();
         // The folds' fits and the fit on all samples (the last), side by side.

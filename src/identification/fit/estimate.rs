@@ -56,14 +56,7 @@ fn fit_inner(
     use_sample: &dyn Fn(usize) -> bool,
     full: bool,
 ) -> Result<Fit> {
-    // The gear estimator's parameters hold the gear friction.
-    let with_gear;
-    let s = if estimator.fits_gear() && !s.gear {
-        with_gear = s.with_gear();
-        &with_gear
-    } else {
-        s
-    };
+    let s = &*s.for_estimator(estimator);
     let rows: Vec<usize> = (0..s.len())
         .filter(|&m| s.fit[m] && use_sample(m))
         .collect();

@@ -124,11 +124,8 @@ fn consistent_model(
         &prior,
         &crate::identification::consistent::Options::default(),
     )?;
-    let model = if estimator.fits_gear() {
-        refit_losses(&samples.with_gear(), fit, model, estimator, opts.weighting)?
-    } else {
-        refit_losses(samples, fit, model, estimator, opts.weighting)?
-    };
+    let samples = samples.for_estimator(estimator);
+    let model = refit_losses(&samples, fit, model, estimator, opts.weighting)?;
     Ok((model, consistent))
 }
 

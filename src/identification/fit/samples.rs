@@ -2,6 +2,8 @@
 //! payload torques; per observation the measured power, its series and its
 //! cross-validation piece and fold.
 
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::layout::Layout;
@@ -66,7 +68,7 @@ pub struct Samples {
     /// Whether the parameters hold a standby power per motor (the logs' motor power is fitted).
     pub(super) motors: bool,
     /// Whether the parameters hold a gear-friction coefficient per joint
-    /// ([`Samples::with_gear`]).
+    /// ([`Samples::for_estimator`]).
     pub(super) gear: bool,
     /// Series of each observation: one measured signal of one log, in time order (the
     /// residuals of neighbours in a series are correlated).
@@ -339,7 +341,7 @@ impl Samples {
     }
 
     /// Layout of the parameters `z = [theta, c_1..c_n, g_1..g_n, P0_1..P0_n, P0]` (the gear
-    /// friction `g_i` only [`Samples::with_gear`], the motors' own standby powers `P0_i` only
+    /// friction `g_i` only for the `gear` estimator ([`Samples::for_estimator`]), the motors' own standby powers `P0_i` only
     /// when their power is observed).
     pub(super) fn layout(&self) -> Layout {
         Layout {
@@ -350,13 +352,17 @@ impl Samples {
         }
     }
 
-    /// The same samples for the `gear` estimator: the parameters then hold a gear-friction
-    /// coefficient per joint. (The others' fits leave them out, so that their every
-    /// evaluation does not carry them.)
-    pub(super) fn with_gear(&self) -> Samples {
-        Samples {
-            gear: true,
-            ..self.clone()
+    /// The samples `estimator` fits: these, or for the `gear` estimator a copy whose
+    /// parameters hold a gear-friction coefficient per joint. (The others' fits leave them
+    /// out, so that their every evaluation does not carry them.)
+    pub(super) fn for_estimator(&self, estimator: super::Estimator) -> Cow<'_, Samples> {
+        if estimator.fits_gear() && !self.gear {
+            Cow::Owned(Samples {
+                gear: true,
+                ..self.clone()
+            })
+        } else {
+            Cow::Borrowed(self)
         }
     }
 
