@@ -34,6 +34,7 @@ use powertwin::twin::TwinConfig;
 use powertwin::twin::physics::PhysicsSettings;
 use powertwin::twin::sensor::SensorSettings;
 use powertwin::validation::heldout::{self, HeldoutOptions};
+use powertwin::validation::idset::IdSetOptions;
 use powertwin::validation::rig::{Rig, Silent};
 use powertwin::validation::sweep;
 use powertwin::{Error, Robot};
@@ -526,6 +527,15 @@ fn cli(arm: &Arm, tag: &str) {
     args.extend(a.iter().map(String::as_str));
     let (code, _, err) = powertwin(&args);
     assert!(code != 0 && err.contains("--max-payload"), "{tag}: {err}");
+    // So must it for a family, whose identification loads go up to it.
+    let unrated_path = s(&unrated);
+    let mut args: Vec<&str> = vec!["validate", "--family", "1", "--drive", &unrated_path];
+    args.extend(robot.iter().map(String::as_str));
+    let (code, _, err) = powertwin(&args);
+    assert!(
+        code != 0 && err.contains("--max-payload"),
+        "{tag} family: {err}"
+    );
     let mut a = with_drive(robot);
     a.extend([
         "--scenario".into(),
@@ -548,6 +558,47 @@ fn cli(arm: &Arm, tag: &str) {
         cell["error_pct"].as_f64().unwrap().abs() < 3.0,
         "{tag}: {v}"
     );
+}
+
+/// `validate --family` on an arm other than the IRB 1200: each drawn robot is identified
+/// from the identification set derived for the arm (centres spread over its joint space,
+/// loads up to its rated payload) with the estimator asked for, and judged on held-out
+/// motions it was not fitted on.
+#[test]
+fn a_family_of_ur5s_is_identified_from_a_set_derived_for_the_arm() {
+    let (robot, drive, _) = load(&UR5);
+    let rated = drive.rated_payload_kg().unwrap();
+    let set = IdSetOptions::for_arm(&robot, rated, false).unwrap();
+    assert_eq!(set.centres.len(), 8);
+    assert_eq!(set.loads_kg.iter().cloned().fold(0.0, f64::max), rated);
+    assert_eq!(set.loads_kg[0], 0.0);
+    for centre in &set.centres {
+        for (q, j) in centre.iter().zip(robot.joints()) {
+            assert!(*q > j.limits.lower && *q < j.limits.upper, "{centre:?}");
+        }
+    }
+    let err = IdSetOptions::for_arm(&robot, 0.0, false).unwrap_err();
+    assert!(err.to_string().contains("rated payload"), "{err}");
+    let (urdf, drive) = (repo(UR5.urdf), repo(UR5.drive));
+    let (urdf, drive) = (urdf.to_str().unwrap(), drive.to_str().unwrap());
+    let args = [
+        "validate", "--robot", urdf, "--drive", drive, "--family", "1", "--count", "3", "--method",
+        "pmsm", "--json",
+    ];
+    let (code, out, err) = powertwin(&args);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let robot = &v["robots"][0];
+    assert_eq!(robot["model"], "cv:pmsm", "{robot}");
+    assert_eq!(robot["motions"], 6, "{robot}");
+    let error = &v["from_log"]["energy_error_pct"];
+    eprintln!("a UR5 of the family, 6 held-out motions: energy error from the log {error}");
+    assert!(error["worst"].as_f64().unwrap() < 3.0, "{error}");
+    // A method that fits no candidates is refused.
+    let mut bad = args.to_vec();
+    bad[10] = "energy";
+    let (code, _, err) = powertwin(&bad);
+    assert!(code != 0 && err.contains("cross-validated"), "{err}");
 }
 
 #[test]

@@ -400,6 +400,64 @@ fn dataset_items_run_robots_of_the_family() {
     }
 }
 
+/// A family robot the twin cannot track along an item's motion is redrawn, and the redraws
+/// are recorded in the item's `meta.json`; an item whose every draw saturates is refused.
+/// (Joint 2's effort limit is cut to 110 N m, about the torque item 0 needs.)
+#[test]
+fn dataset_items_redraw_robots_that_saturate() {
+    let urdf = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/irb1200_7_70.urdf"),
+    )
+    .unwrap();
+    let weak = |limit: &str| -> std::path::PathBuf {
+        let cut = urdf.replace(
+            r#"velocity="4.188790205" effort="250""#,
+            &format!(r#"velocity="4.188790205" effort="{limit}""#),
+        );
+        assert_ne!(cut, urdf);
+        let path = common::tmp(&format!("weak_joint_2_{limit}.urdf"));
+        std::fs::write(&path, cut).unwrap();
+        path
+    };
+    let dataset = |limit: &str| {
+        let (urdf, out) = (weak(limit), common::tmp(&format!("dataset_redraw_{limit}")));
+        let (code, _, err) = common::run(&[
+            "dataset",
+            "--robot",
+            urdf.to_str().unwrap(),
+            "--truth",
+            "family:2",
+            "--count",
+            "1",
+            "--seed",
+            "5",
+            "--format",
+            "csv",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        (code, err, out)
+    };
+    let (code, err, out) = dataset("110");
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(out.join("item_000000/meta.json")).unwrap();
+    let meta: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let family = &meta["family"];
+    let redraws = family["redraws"].as_array().expect("redraws recorded");
+    assert!(!redraws.is_empty(), "{family}");
+    for (k, r) in redraws.iter().enumerate() {
+        assert_eq!(r["family_seed"], 2_000_000 + k as u64);
+        assert!(r["reason"].as_str().unwrap().contains("joint_2"), "{r}");
+    }
+    assert_eq!(family["seed"], 2_000_000 + redraws.len() as u64);
+    let (code, err, _) = dataset("60");
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("saturated") && err.contains("too wide"),
+        "{err}"
+    );
+}
+
 /// A cabinet load the meter sees after the bus clip puts a floor under the reading. Gentle
 /// identification logs never reach it, so the fit cannot find it (the standby absorbs the
 /// cabinet). The model records the lowest level its logs showed the meter at, and a motion

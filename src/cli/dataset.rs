@@ -23,7 +23,9 @@ use super::TwinArgs;
 /// docs/guide/bulk-datasets.md). With --truth family:SEED, item j instead runs robot j of
 /// that family (the robot validate --family --seed SEED draws j-th, family seed
 /// SEED * 1000000 + 10 j): its own inertias, friction laws, losses, controller and logger,
-/// recorded in its meta.json.
+/// recorded in its meta.json. A robot whose torque saturates along the item's motion is
+/// redrawn (family seed + 1, + 2, ..., at most 5 times), the refused ones listed in
+/// meta.json.
 #[derive(Debug, Args)]
 pub struct DatasetArgs {
     #[command(flatten)]

@@ -52,6 +52,20 @@ pub enum Method {
     Gear,
 }
 
+impl Method {
+    /// The estimators cross-validation chooses from for a fitted method (`auto`, `total`,
+    /// `pmsm`, `gear`); `None` for the paper's methods, which fit no candidates.
+    pub(super) fn candidates(self) -> Option<Vec<Estimator>> {
+        match self {
+            Method::Auto => Some(Estimator::auto()),
+            Method::Total => Some(vec![Estimator::Total]),
+            Method::Pmsm => Some(vec![Estimator::Pmsm]),
+            Method::Gear => Some(vec![Estimator::Pmsm, Estimator::Gear]),
+            Method::PaperSteps | Method::PerJoint | Method::Energy => None,
+        }
+    }
+}
+
 /// Weighting of the samples (see `identify --weighting`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum WeightingArg {
@@ -452,12 +466,7 @@ struct Identified {
 
 /// The options of `--method auto`, `total` or `pmsm`, with `prior`.
 fn fit_options(args: &IdentifyArgs, min_speed: f64, prior: Option<Prior>) -> FitOptions {
-    let candidates = match args.method {
-        Method::Total => vec![Estimator::Total],
-        Method::Pmsm => vec![Estimator::Pmsm],
-        Method::Gear => vec![Estimator::Pmsm, Estimator::Gear],
-        _ => Estimator::auto(),
-    };
+    let candidates = args.method.candidates().unwrap_or_else(Estimator::auto);
     FitOptions {
         min_speed,
         candidates,

@@ -4,11 +4,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result};
-use clap::Args;
+use clap::{Args, ValueEnum};
 use powertwin::validation::family::{Family, FamilyOptions};
 use powertwin::validation::heldout::{self, Heldout, HeldoutOptions};
 use powertwin::validation::idset::IdSetOptions;
 
+use crate::cli::identify::Method;
 use crate::cli::progress::Bars;
 use crate::cli::{Setup, TwinArgs, emit, read_model, write_all};
 
@@ -30,7 +31,10 @@ const HELDOUT_SEED: u64 = 90_210;
 /// identification set run on it, cross-validated, with the files' prior as identify's
 /// default; the files are all identification sees) and
 /// judged on --count held-out motions from each of two seeds; prints each robot and the
-/// pooled figures, and with --out writes family.json.
+/// pooled figures, and with --out writes family.json. The IRB 1200 runs the identification
+/// set of `reproduce`; any other arm the same set derived for it (eight excitations about
+/// centres spread over its joint space, loads from none to --max-payload), as `excite --set`
+/// designs one.
 #[derive(Debug, Args)]
 pub struct ValidateArgs {
     #[command(flatten)]
@@ -49,9 +53,13 @@ pub struct ValidateArgs {
     #[arg(long)]
     seed: Option<u64>,
     /// Largest payload, kg [default: the drive file's rated payload (rated_payload_kg; the
-    /// IRB 1200's 7 kg)].
+    /// IRB 1200's 7 kg)]; with --family also the heaviest identification load.
     #[arg(long)]
     max_payload: Option<f64>,
+    /// With --family: the estimators each robot's identification chooses from by
+    /// cross-validation, as identify's --method [default: auto].
+    #[arg(long, value_enum)]
+    method: Option<Method>,
     /// Output directory for heldout.json and the twin datasets.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -65,6 +73,9 @@ const FAMILY_HELDOUT_SEEDS: usize = 2;
 
 /// Run `validate`.
 pub fn run(args: &ValidateArgs) -> Result<ExitCode> {
+    if args.method.is_some() && args.family.is_none() {
+        anyhow::bail!("--method applies to --family (a --model is already identified)");
+    }
     let setup = args.twin.setup()?;
     let Some(model_path) = &args.model else {
         return family(args, &setup);
@@ -205,25 +216,41 @@ fn family(args: &ValidateArgs, setup: &Setup) -> Result<ExitCode> {
     if setup.plant.is_some() {
         anyhow::bail!("--family draws its own robots: leave out --truth family:SEED");
     }
-    if setup.robot.name() != powertwin::model::builtin::IRB1200_NAME {
-        anyhow::bail!(
-            "--family runs the IRB 1200's identification set; for another arm, draw one robot \
-             with --truth family:SEED and identify it from `excite --set` runs"
-        );
-    }
     let count = args.count.unwrap_or(12);
     if count == 0 {
         anyhow::bail!("--count must be at least 1");
     }
-    let max_payload = args
-        .max_payload
-        .or(setup.drive.rated_payload_kg())
-        .unwrap_or(7.0);
+    let irb1200 = setup.robot.name() == powertwin::model::builtin::IRB1200_NAME;
+    let max_payload = match args.max_payload.or(setup.drive.rated_payload_kg()) {
+        Some(kg) => kg,
+        None if irb1200 => 7.0,
+        None => anyhow::bail!(
+            "--family: the drive file has no rated_payload_kg; give --max-payload, the \
+             heaviest load the identification set and the held-out motions may carry"
+        ),
+    };
+    let mut idset = if irb1200 {
+        IdSetOptions::irb1200(false)
+    } else {
+        IdSetOptions::for_arm(&setup.robot, max_payload, false)
+            .context("--family: designing the identification set of this arm")?
+    };
+    if let Some(method) = args.method {
+        idset.fit.candidates = method.candidates().with_context(|| {
+            format!(
+                "--method {}: validate --family identifies with the cross-validated \
+                 estimators (auto, total, pmsm or gear)",
+                method
+                    .to_possible_value()
+                    .map_or_else(String::new, |v| v.get_name().to_owned())
+            )
+        })?;
+    }
     let opts = FamilyOptions {
         robots,
         seed: args.seed.unwrap_or(1),
         table: args.twin.truth_args().family_table()?,
-        idset: IdSetOptions::irb1200(false),
+        idset,
         heldout: HeldoutOptions::for_robot(&setup.robot, count, max_payload)?,
         heldout_seeds: FAMILY_HELDOUT_SEEDS,
         prior: Some(powertwin::identification::prior::PriorWidths::default()),

@@ -18,7 +18,9 @@
 //! truths ([`BulkSpec::family`]) item `j` instead runs robot `j` of the family
 //! ([`family_seed`]`(seed, j, 0)`, the robot `validate --family` draws first for that
 //! index): its own inertias, friction laws, losses, controller and logger, recorded in its
-//! `meta.json`; the trajectory and payload draws are the same.
+//! `meta.json`; the trajectory and payload draws are the same. A robot the twin cannot track
+//! along the item's motion (a joint's torque saturates) is redrawn
+//! ([`family_seed`]`(seed, j, 1)`, ...), and the redraws are recorded in the draw.
 
 use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
@@ -38,7 +40,7 @@ use crate::trajectory::limits::default_accel_limits;
 use crate::trajectory::random::{
     RandomFourierOptions, RandomPointToPointOptions, random_fourier, random_point_to_point,
 };
-use crate::twin::family::{FamilyTable, family_seed};
+use crate::twin::family::{FamilyTable, MAX_REDRAWS, Redraw, family_seed};
 use crate::twin::sensor::SensorSettings;
 use crate::twin::{RunReport, TwinConfig};
 
@@ -181,29 +183,15 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         .collect();
     let description = json!({"item": index, "global_seed": spec.seed, "trajectory": description});
     if let Some(family) = &spec.family {
-        let plant = family.table.draw(
-            robot,
-            spec.drive,
-            &spec.twin,
-            &spec.sensor,
-            family_seed(family.seed, index, 0),
-        )?;
-        return simulate(&RunSpec {
-            robot: &plant.robot,
-            urdf: spec.urdf.clone(),
-            drive: &plant.drive,
+        let item = FamilyItem {
+            index,
+            item_seed,
+            sensor_seed: rng.random(),
             events: &events,
-            brakes: &[],
-            twin: plant.twin.clone(),
-            sensor: SensorSettings {
-                seed: rng.random(),
-                ..plant.sensor
-            },
             trajectory: traj.as_ref(),
-            trajectory_description: description,
-            trajectory_seed: Some(item_seed),
-            family: Some(&plant.draw),
-        });
+            description,
+        };
+        return family_item(spec, family, &item);
     }
     let drive = scaled_drive(spec, &mut rng)?;
     let sensor = SensorSettings {
@@ -223,6 +211,70 @@ pub fn item(spec: &BulkSpec, index: usize) -> Result<(Dataset, RunReport)> {
         trajectory_seed: Some(item_seed),
         family: None,
     })
+}
+
+/// What an item drew before its robot: the motion, payloads and seeds.
+struct FamilyItem<'a> {
+    index: usize,
+    item_seed: u64,
+    sensor_seed: u64,
+    events: &'a [PayloadEvent],
+    trajectory: &'a dyn Trajectory,
+    description: serde_json::Value,
+}
+
+/// Item `index` of a family set: run on robot `index` of the family, redrawn (up to
+/// [`MAX_REDRAWS`] times, each redraw recorded in the draw) while the twin cannot track it
+/// along the item's motion (a joint's torque saturates).
+///
+/// Errors: every draw saturated; a draw or twin run that fails.
+fn family_item(
+    spec: &BulkSpec,
+    family: &BulkFamily,
+    item: &FamilyItem,
+) -> Result<(Dataset, RunReport)> {
+    let index = item.index;
+    let mut redraws = Vec::new();
+    for attempt in 0..=MAX_REDRAWS {
+        let seed = family_seed(family.seed, index, attempt);
+        let mut plant =
+            family
+                .table
+                .draw(spec.robot, spec.drive, &spec.twin, &spec.sensor, seed)?;
+        plant.draw.redraws = redraws.clone();
+        let (ds, report) = simulate(&RunSpec {
+            robot: &plant.robot,
+            urdf: spec.urdf.clone(),
+            drive: &plant.drive,
+            events: item.events,
+            brakes: &[],
+            twin: plant.twin.clone(),
+            sensor: SensorSettings {
+                seed: item.sensor_seed,
+                ..plant.sensor
+            },
+            trajectory: item.trajectory,
+            trajectory_description: item.description.clone(),
+            trajectory_seed: Some(item.item_seed),
+            family: Some(&plant.draw),
+        })?;
+        match report.torque_limit_hits.first() {
+            None => return Ok((ds, report)),
+            Some(hit) => redraws.push(Redraw {
+                family_seed: seed,
+                reason: format!(
+                    "joint '{}' saturated at t = {:.3} s",
+                    hit.joint, hit.first_t_s
+                ),
+            }),
+        }
+    }
+    Err(Error::InvalidInput(format!(
+        "every one of {} family robots drawn for item {index} saturated a joint's torque \
+         (last: {}); the family table is too wide for this robot and motion",
+        MAX_REDRAWS + 1,
+        redraws.last().map_or("", |d| d.reason.as_str())
+    )))
 }
 
 /// Draw an item's payload (the next draws of its RNG): none, the tool, or the tool and a

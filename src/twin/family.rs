@@ -158,6 +158,20 @@ pub struct JointDraw {
     pub standby_w: f64,
 }
 
+/// Redraws of one robot before the family is given up as untrackable (the table too wide
+/// for the robot).
+pub const MAX_REDRAWS: u64 = 5;
+
+/// A drawn robot that could not be used, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Redraw {
+    /// Its family seed.
+    pub family_seed: u64,
+    /// Why it was redrawn.
+    pub reason: String,
+}
+
 /// What was drawn for one robot of the family: recorded in `meta.json` (truth only, for
 /// scoring). The true link inertias are the dataset's `standard_params`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -191,6 +205,10 @@ pub struct Draw {
     /// Meter noise, W.
     #[serde(rename = "power_sigma_W")]
     pub power_sigma_w: f64,
+    /// Robots drawn for the same place before this one and refused (the twin could not
+    /// track them: a joint's torque saturated), in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub redraws: Vec<Redraw>,
 }
 
 /// One robot of the family: what the twin simulates. Built by [`FamilyTable::draw`]; not
@@ -357,6 +375,7 @@ impl FamilyTable {
             power_lag_s,
             encoder_sigma_rad: noise.encoder_sigma_rad,
             power_sigma_w: noise.power_sigma_w,
+            redraws: Vec::new(),
         };
         Ok(Plant {
             robot: true_robot,

@@ -16,14 +16,11 @@ use crate::error::{Error, Result};
 use crate::identification::prior::{Prior, PriorWidths};
 use crate::model::Robot;
 pub use crate::twin::family::family_seed;
-use crate::twin::family::{FamilyTable, Plant};
+use crate::twin::family::{FamilyTable, MAX_REDRAWS, Plant, Redraw};
 use crate::validation::heldout::{self, Heldout, HeldoutOptions};
 use crate::validation::idset::{self, IdSetOptions};
 use crate::validation::rig::{Progress, Rig, Together};
 use crate::validation::score::{MotionResult, RouteSummary, Spread};
-
-/// Redraws of one robot before the family is given up as untrackable.
-const MAX_REDRAWS: u64 = 5;
 
 /// Settings of the family benchmark.
 #[derive(Debug, Clone)]
@@ -61,15 +58,6 @@ impl FamilyOptions {
             prior: Some(PriorWidths::default()),
         }
     }
-}
-
-/// A drawn robot that could not be used, and why.
-#[derive(Debug, Clone, Serialize)]
-pub struct Redraw {
-    /// Its family seed.
-    pub family_seed: u64,
-    /// Why it was redrawn.
-    pub reason: String,
 }
 
 /// One robot of the family and its benchmark.

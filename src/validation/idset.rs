@@ -12,14 +12,16 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
 use crate::identification::excitation::standby_pose;
+use crate::identification::excitation_set::centres::spread_centres;
 use crate::identification::excitation_set::{
     Member, SetCriterion, SetDesign, SetOptions, design_set,
 };
 use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
+use crate::model::Robot;
 use crate::model::payload::{Payload, PayloadEvent};
 use crate::trajectory::fourier::Fourier;
-use crate::trajectory::limits::IRB1200_ACCEL_LIMITS;
+use crate::trajectory::limits::{IRB1200_ACCEL_LIMITS, default_accel_limits};
 use crate::validation::rig::{Progress, Rig};
 
 /// Harmonics of each excitation (and of the Fourier route its log is read along).
@@ -41,6 +43,26 @@ const WORKSPACE: Workspace = Workspace {
     floor_z_m: 0.05,
     base_radius_m: 0.15,
 };
+
+/// Load of each excitation of [`IdSetOptions::for_arm`]'s set as a fraction of the rated
+/// payload: the IRB 1200's 0, 2, 4.5, 7, 1, 3, 5.5 and 6 kg of its 7 kg.
+const LOAD_FRACTIONS: [f64; 8] = [
+    0.0,
+    2.0 / 7.0,
+    4.5 / 7.0,
+    1.0,
+    1.0 / 7.0,
+    3.0 / 7.0,
+    5.5 / 7.0,
+    6.0 / 7.0,
+];
+
+/// Base frequencies of [`IdSetOptions::for_arm`]'s excitations, Hz, alternating (two speed
+/// spectra), as the IRB 1200's set and `excite --set`.
+const ARM_BASE_FREQ_HZ: [f64; 2] = [0.1, 0.2];
+
+/// Seed of the identification set's design (and of [`IdSetOptions::for_arm`]'s centres).
+const DESIGN_SEED: u64 = 101;
 
 /// Centre of mass of the identification loads in the flange frame, m (a cube bolted to the
 /// flange face).
@@ -103,7 +125,7 @@ impl IdSetOptions {
             criterion: SetCriterion::DOptimal,
             rounds: 2,
             max_evals: if quick { 300 } else { 800 },
-            seed: 101,
+            seed: DESIGN_SEED,
             fit: FitOptions::default(),
         };
         if quick {
@@ -112,6 +134,43 @@ impl IdSetOptions {
             o.base_freq_hz.truncate(4);
         }
         o
+    }
+
+    /// The same experiment for any arm, derived as `excite --set` derives it: eight
+    /// excitations (`quick`: four of two stretches) about centres spread over the joint space
+    /// inside the IRB 1200's workspace margins, alternating 0.1 and 0.2 Hz, carrying the
+    /// IRB 1200 set's loads scaled to `rated_payload_kg` (0 to the rated payload), with the
+    /// robot's default acceleration limits ([`default_accel_limits`]).
+    ///
+    /// Errors ([`Error::InvalidInput`]): a rated payload that is not finite and positive, or
+    /// a joint space in which no centre can be placed ([`spread_centres`]).
+    pub fn for_arm(robot: &Robot, rated_payload_kg: f64, quick: bool) -> Result<IdSetOptions> {
+        if !(rated_payload_kg.is_finite() && rated_payload_kg > 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "rated payload {rated_payload_kg} kg: give a finite payload above 0 kg"
+            )));
+        }
+        let count = if quick { 4 } else { LOAD_FRACTIONS.len() };
+        let w = &WORKSPACE;
+        Ok(IdSetOptions {
+            centres: spread_centres(
+                robot,
+                count,
+                w.margin_rad,
+                w.floor_z_m,
+                w.base_radius_m,
+                DESIGN_SEED,
+            )?,
+            loads_kg: LOAD_FRACTIONS[..count]
+                .iter()
+                .map(|f| f * rated_payload_kg)
+                .collect(),
+            base_freq_hz: (0..count)
+                .map(|k| ARM_BASE_FREQ_HZ[k % ARM_BASE_FREQ_HZ.len()])
+                .collect(),
+            accel_limits: default_accel_limits(robot),
+            ..IdSetOptions::irb1200(quick)
+        })
     }
 }
 
