@@ -577,6 +577,43 @@ mod spline_route {
         t
     }
 
+    /// A fast, noisy log of a rest: 500 Hz with 1.5e-5 rad of encoder noise, one sample
+    /// 4.5 standard deviations off (noise, not motion). Every 0.1 s window through that sample
+    /// spans more than the rest test's 1e-4 rad, so the test alone breaks the rest around it.
+    /// The route holds the whole rest still, with no motion, and no acceleration, invented
+    /// through that sample, and still starts the motion after the rest.
+    #[test]
+    fn a_noisy_fast_log_keeps_a_rest_still() {
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = common::rng(7);
+        let (rate, rest_s, sigma, blip) = (500.0, 2.0, 1.5e-5, 500);
+        let t: Vec<f64> = (0..1250).map(|k| k as f64 / rate).collect();
+        let q: Vec<Vec<f64>> = [0.4, -1.1, 0.7]
+            .iter()
+            .map(|&q0| {
+                (0..t.len())
+                    .map(|k| {
+                        let u = (t[k] - rest_s).max(0.0);
+                        let z: f64 = StandardNormal.sample(&mut rng);
+                        let off = if k == blip { 4.5 * sigma } else { 0.0 };
+                        q0 + 0.2 * u * u * u + sigma * z + off
+                    })
+                    .collect()
+            })
+            .collect();
+        let rest = rest_intervals(&t, &q);
+        let still_end = (rest_s * rate) as usize - 60;
+        assert!(!rest[blip], "the rest test alone keeps the rest whole");
+        let s = from_spline(&t, &q).unwrap().states;
+        for i in 0..3 {
+            let worst = (0..still_end)
+                .map(|k| s.ddq[i][k].abs())
+                .fold(0.0, f64::max);
+            assert_eq!(worst, 0.0, "joint {}: acceleration at rest", i + 1);
+            assert!(s.dq[i][1240] > 0.1, "joint {} moves after the rest", i + 1);
+        }
+    }
+
     #[test]
     fn quintic_spline_reproduces_polynomials_it_can_represent() {
         let t = knots(12, 0.1, 1);

@@ -19,6 +19,7 @@ pub mod model;
 pub mod plan;
 pub mod pmsm;
 pub mod prior;
+mod rests;
 pub mod spline;
 pub mod states;
 pub mod steps;

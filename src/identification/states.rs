@@ -15,23 +15,20 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result, ensure_finite};
+use crate::identification::rests::{
+    EDGE_SIGMA_FLOOR, join_still_gaps, rest_jitter, rests_show_noise, stretches,
+};
 use crate::identification::spline::{End, quintic, smooth};
 use crate::trajectory::Trajectory;
+
+pub use crate::identification::rests::{
+    DIFFERENCE_ORDERS, MIN_REST_DOF, REST_SPEED, REST_WINDOW_S, noise_levels, rest_intervals,
+};
 
 pub use crate::identification::tuning::{
     AGREED_NOISE_RATIO, EDGE_Z, EDGE_Z_AGREED, MOVE_Z, SLOPE_HALF_WINDOW_S, START_FROM_REST_RATIO,
     WHITE_RATIO,
 };
-
-/// Joint speed (rad/s) below which the robot counts as standing still: ten times the
-/// velocity noise that 1e-5 rad of encoder noise gives at 10 Hz.
-pub const REST_SPEED: f64 = 1e-3;
-
-/// Shortest span (s) over which rest is judged: every joint moves less than
-/// `REST_SPEED x REST_WINDOW_S` (1e-4 rad, seven standard deviations of the difference of two
-/// samples with 1e-5 rad of encoder noise) within it. At 10 Hz that is one sample period; a
-/// faster log is judged over as many samples, so the noise never passes for motion.
-pub const REST_WINDOW_S: f64 = 0.1;
 
 /// States of every joint at sample times; vectors are joint-major (`q[i][m]`).
 #[derive(Debug, Clone, PartialEq)]
@@ -169,33 +166,6 @@ pub fn from_smoothing(t: &[f64], q: &[Vec<f64>], window: usize, degree: usize) -
     Ok(s)
 }
 
-/// Which sample intervals `[t_k, t_k+1]` the robot stands still in: those inside a span of
-/// at least [`REST_WINDOW_S`] (or one sample period, if longer) over which every joint's
-/// positions stay within [`REST_SPEED`] times the span.
-pub fn rest_intervals(t: &[f64], q: &[Vec<f64>]) -> Vec<bool> {
-    let m = t.len();
-    let mut rest = vec![false; m.saturating_sub(1)];
-    for a in 0..m.saturating_sub(1) {
-        let b = (a + 1..m)
-            .find(|&b| t[b] - t[a] >= REST_WINDOW_S * (1.0 - 1e-9))
-            .unwrap_or(m - 1);
-        let bound = REST_SPEED * (t[b] - t[a]).max(REST_WINDOW_S);
-        let still = q.iter().all(|qi| {
-            let w = &qi[a..=b];
-            let (lo, hi) = w
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(*v), hi.max(*v))
-                });
-            hi - lo <= bound
-        });
-        if still {
-            rest[a..b].fill(true);
-        }
-    }
-    rest
-}
-
 /// The spline route through a log ([`from_spline`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SplineRoute {
@@ -236,7 +206,8 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
         )));
     }
     check_samples(t, q)?;
-    let rest = rest_intervals(t, q);
+    let mut rest = rest_intervals(t, q);
+    join_still_gaps(q, &mut rest);
     let n = q.len();
     let mut s = States {
         t: t.to_vec(),
@@ -473,33 +444,6 @@ fn previous_rest(stretches: &[(bool, usize, usize)], first: usize) -> usize {
         .map_or(0, |r| r.2)
 }
 
-/// Least encoder noise (rad) assumed when weighing an edge's shift: a noise-free log (the
-/// twin without sensor noise) holds its rests to rounding.
-const EDGE_SIGMA_FLOOR: f64 = 1e-9;
-
-/// Encoder noise of each joint (rad) judged from the rests' sample-to-sample steps, robustly:
-/// `1.4826 median |x_k+1 - x_k| / sqrt(2)` over the intervals at rest. Unlike the pooled
-/// scatter of [`noise_levels`], it ignores the few steps at a rest's edges where the robot
-/// still (or already) moves, which inflate the pooled scatter of short rests
-/// (docs/experiments.md#encoder-noise-levels). Zero without rests.
-fn rest_jitter(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
-    q.iter()
-        .map(|x| {
-            let mut steps: Vec<f64> = rest
-                .iter()
-                .enumerate()
-                .filter(|r| *r.1)
-                .map(|(k, _)| (x[k + 1] - x[k]).abs())
-                .collect();
-            if steps.is_empty() {
-                return 0.0;
-            }
-            steps.sort_by(f64::total_cmp);
-            1.4826 * steps[steps.len() / 2] / std::f64::consts::SQRT_2
-        })
-        .collect()
-}
-
 /// Whether a rest's edge sample `edge` has already moved off the rest samples `rest` toward
 /// the motion's sample `toward` (its neighbour): its shift off their mean along the direction
 /// from `edge` to `toward`, weighed by each joint's noise `sigma` (rad), is at least
@@ -651,126 +595,6 @@ pub fn starts_from_rest(t: &[f64], q: &[Vec<f64>]) -> bool {
         |k: usize| q.iter().map(|qi| (qi[k + 1] - qi[k]).abs()).sum::<f64>() / (t[k + 1] - t[k]);
     let (first, second) = (speed(0), speed(1));
     second > 0.0 && second >= START_FROM_REST_RATIO * first
-}
-
-/// Degrees of freedom (samples in rests less one per rest) from which [`noise_levels`] takes
-/// the encoder noise from the rests.
-pub const MIN_REST_DOF: usize = 2;
-
-/// Orders of the differences [`noise_levels`] estimates white noise from when the log has too
-/// little rest. White noise gives the same estimate at every order; a motion the sampling
-/// resolves gives estimates that fall with the order.
-pub const DIFFERENCE_ORDERS: [usize; 3] = [4, 6, 8];
-
-/// Robust standard deviation of white noise from the `p`-th differences of `x`:
-/// `1.4826 median|Δ^p x| / sqrt(C(2p, p))`; `None` for too few samples.
-fn difference_sigma(x: &[f64], p: usize) -> Option<f64> {
-    if x.len() <= p + 2 {
-        return None;
-    }
-    let mut d = x.to_vec();
-    for _ in 0..p {
-        d = d.windows(2).map(|w| w[1] - w[0]).collect();
-    }
-    let mut a: Vec<f64> = d.iter().map(|v| v.abs()).collect();
-    a.sort_by(f64::total_cmp);
-    let binom = (1..=p).fold(1.0, |c, k| c * (p + k) as f64 / k as f64);
-    Some(1.4826 * a[a.len() / 2] / binom.sqrt())
-}
-
-/// Maximal stretches of equal `rest` flags (one per sample interval) as `(at rest, first,
-/// last)` with the sample range `first..=last`.
-fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
-    let mut out = Vec::new();
-    let mut k = 0;
-    while k < rest.len() {
-        let (still, first) = (rest[k], k);
-        while k < rest.len() && rest[k] == still {
-            k += 1;
-        }
-        out.push((still, first, k));
-    }
-    out
-}
-
-/// Encoder noise of each joint's positions `q[i][m]`, rad, given the [`rest_intervals`]
-/// `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
-/// each joint's samples about each rest's mean, pooled over the rests, and where the joint's
-/// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that,
-/// both pooled by their degrees of freedom (`white_sigma`). Otherwise from the differences
-/// alone, joint by joint: where a joint's samples look like white noise, that estimate;
-/// where they do not, zero (the sampling resolves the motion above the noise, and the spline
-/// interpolates). Each joint keeps its own: a 10 Hz log whose wrist sticks and slips looks
-/// white on that joint only, and handing that level to every joint smooths the others' ends
-/// away (docs/experiments.md#encoder-noise-levels).
-///
-/// The smoothing spline brings its residual to this level ([`super::spline::smooth`]), so an
-/// estimate a little low leaves the accelerations rough.
-pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
-    let rests = rest_spans(rest);
-    let in_rests: usize = rests.iter().map(|(a, b)| b - a + 1).sum();
-    if !rests_show_noise(rest) {
-        // No rest to watch the encoders alone: each joint by its own differences.
-        return q
-            .iter()
-            .map(|x| white_sigma(x).map_or(0.0, |w| w.0))
-            .collect();
-    }
-    let rest_dof = (in_rests - rests.len()) as f64;
-    q.iter()
-        .map(|x| {
-            let ss: f64 = rests
-                .iter()
-                .map(|&(a, b)| {
-                    let w = &x[a..=b];
-                    let mean = w.iter().sum::<f64>() / w.len() as f64;
-                    w.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
-                })
-                .sum();
-            let at_rest = (ss / rest_dof).sqrt();
-            match white_sigma(x) {
-                Some((sigma, dof)) if sigma <= AGREED_NOISE_RATIO * at_rest => {
-                    ((rest_dof * at_rest * at_rest + dof * sigma * sigma) / (rest_dof + dof)).sqrt()
-                }
-                _ => at_rest,
-            }
-        })
-        .collect()
-}
-
-/// A joint's encoder noise (rad) from the differences of its samples `x`, with the degrees of
-/// freedom it stands for, where they look like white noise (the fourth order's estimate within
-/// [`WHITE_RATIO`] of the eighth's): the least estimate over [`DIFFERENCE_ORDERS`]. The
-/// degrees of freedom are those of the median absolute deviation (37 % efficient) of about
-/// `len / 4` independent fourth differences. `None` for too few samples or a motion the
-/// sampling resolves.
-fn white_sigma(x: &[f64]) -> Option<(f64, f64)> {
-    let s: Vec<f64> = DIFFERENCE_ORDERS
-        .iter()
-        .map(|&p| difference_sigma(x, p))
-        .collect::<Option<_>>()?;
-    (s[0] <= WHITE_RATIO * s[2]).then(|| {
-        (
-            s.iter().copied().fold(f64::INFINITY, f64::min),
-            0.37 * x.len() as f64 / DIFFERENCE_ORDERS[0] as f64,
-        )
-    })
-}
-
-/// The rests' first and last samples.
-fn rest_spans(rest: &[bool]) -> Vec<(usize, usize)> {
-    stretches(rest)
-        .into_iter()
-        .filter(|r| r.0)
-        .map(|r| (r.1, r.2))
-        .collect()
-}
-
-/// Whether the rests hold at least [`MIN_REST_DOF`] degrees of freedom, so that
-/// [`noise_levels`] measures the encoders there.
-fn rests_show_noise(rest: &[bool]) -> bool {
-    let rests = rest_spans(rest);
-    rests.iter().map(|(a, b)| b - a + 1).sum::<usize>() >= rests.len() + MIN_REST_DOF
 }
 
 /// Check sample times (finite, strictly increasing) and position series (one per joint, as
