@@ -12,7 +12,7 @@ use crate::dataset::Dataset;
 use crate::error::{Error, Result};
 use crate::identification::data::Route;
 use crate::identification::excitation::standby_pose;
-use crate::identification::excitation_set::centres::spread_centres;
+use crate::identification::excitation_set::arm::{self, ArmSet};
 use crate::identification::excitation_set::{
     Member, SetCriterion, SetDesign, SetOptions, design_set,
 };
@@ -20,6 +20,7 @@ use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs
 use crate::measurement::Log;
 use crate::model::Robot;
 use crate::model::payload::{Payload, PayloadEvent};
+use crate::trajectory::cell::Cell;
 use crate::trajectory::fourier::Fourier;
 use crate::trajectory::limits::{IRB1200_ACCEL_LIMITS, default_accel_limits};
 use crate::validation::rig::{Progress, Rig};
@@ -57,9 +58,9 @@ const LOAD_FRACTIONS: [f64; 8] = [
     6.0 / 7.0,
 ];
 
-/// Base frequencies of [`IdSetOptions::for_arm`]'s excitations, Hz, alternating (two speed
-/// spectra), as the IRB 1200's set and `excite --set`.
-const ARM_BASE_FREQ_HZ: [f64; 2] = [0.1, 0.2];
+/// Base frequency of [`IdSetOptions::for_arm`]'s 1st, 3rd, ... excitations, Hz (the others
+/// at twice it, as `excite --set` alternates them): the IRB 1200 set's 0.1 and 0.2 Hz.
+const ARM_BASE_FREQ_HZ: f64 = 0.1;
 
 /// Seed of the identification set's design (and of [`IdSetOptions::for_arm`]'s centres).
 const DESIGN_SEED: u64 = 101;
@@ -136,14 +137,14 @@ impl IdSetOptions {
         o
     }
 
-    /// The same experiment for any arm, derived as `excite --set` derives it: eight
-    /// excitations (`quick`: four of two stretches) about centres spread over the joint space
-    /// inside the IRB 1200's workspace margins, alternating 0.1 and 0.2 Hz, carrying the
-    /// IRB 1200 set's loads scaled to `rated_payload_kg` (0 to the rated payload), with the
-    /// robot's default acceleration limits ([`default_accel_limits`]).
+    /// The same experiment for any arm, planned as `excite --set` plans it in the default
+    /// cell ([`arm::plan`]): eight excitations (`quick`: four of two stretches) about centres
+    /// spread over the joint space, alternating 0.1 and 0.2 Hz, carrying the IRB 1200 set's
+    /// loads scaled to `rated_payload_kg` (0 to the rated payload), with the robot's default
+    /// acceleration limits ([`default_accel_limits`]).
     ///
     /// Errors ([`Error::InvalidInput`]): a rated payload that is not finite and positive, or
-    /// a joint space in which no centre can be placed ([`spread_centres`]).
+    /// those of [`arm::plan`] (a joint space in which no centre can be placed).
     pub fn for_arm(robot: &Robot, rated_payload_kg: f64, quick: bool) -> Result<IdSetOptions> {
         if !(rated_payload_kg.is_finite() && rated_payload_kg > 0.0) {
             return Err(Error::InvalidInput(format!(
@@ -151,25 +152,32 @@ impl IdSetOptions {
             )));
         }
         let count = if quick { 4 } else { LOAD_FRACTIONS.len() };
-        let w = &WORKSPACE;
+        let base = IdSetOptions::irb1200(quick);
+        let loads_kg: Vec<f64> = LOAD_FRACTIONS[..count]
+            .iter()
+            .map(|f| f * rated_payload_kg)
+            .collect();
+        let plan = arm::plan(
+            robot,
+            &Cell::default(),
+            &ArmSet {
+                payloads: load_payloads(&loads_kg)?,
+                duration_s: base.periods as f64 * 10.0,
+                base_freq_hz: ARM_BASE_FREQ_HZ,
+                harmonics: HARMONICS,
+                accel_limits: default_accel_limits(robot),
+                rounds: base.rounds,
+                max_evals: base.max_evals,
+                seed: base.seed,
+            },
+        )?;
+        let members = plan.options.members;
         Ok(IdSetOptions {
-            centres: spread_centres(
-                robot,
-                count,
-                w.margin_rad,
-                w.floor_z_m,
-                w.base_radius_m,
-                DESIGN_SEED,
-            )?,
-            loads_kg: LOAD_FRACTIONS[..count]
-                .iter()
-                .map(|f| f * rated_payload_kg)
-                .collect(),
-            base_freq_hz: (0..count)
-                .map(|k| ARM_BASE_FREQ_HZ[k % ARM_BASE_FREQ_HZ.len()])
-                .collect(),
+            centres: members.iter().map(|m| m.centre.clone()).collect(),
+            base_freq_hz: members.iter().map(|m| m.base_freq_hz).collect(),
+            loads_kg,
             accel_limits: default_accel_limits(robot),
-            ..IdSetOptions::irb1200(quick)
+            ..base
         })
     }
 }
@@ -208,7 +216,7 @@ pub struct IdSet {
 pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<IdSet> {
     let robot = rig.robot;
     check_options(opts)?;
-    let payloads = load_payloads(opts)?;
+    let payloads = load_payloads(&opts.loads_kg)?;
     progress.stage("identification set: joint design", 1);
     let design = design(rig, opts, &payloads)?;
     progress.advance();
@@ -274,8 +282,8 @@ fn check_options(opts: &IdSetOptions) -> Result<()> {
 }
 
 /// The known load of every excitation (None: nothing on the flange).
-fn load_payloads(opts: &IdSetOptions) -> Result<Vec<Option<Payload>>> {
-    opts.loads_kg
+fn load_payloads(loads_kg: &[f64]) -> Result<Vec<Option<Payload>>> {
+    loads_kg
         .iter()
         .map(|&load| {
             (load > 0.0)
