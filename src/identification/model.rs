@@ -307,14 +307,14 @@ impl PowerModel {
         ddq: &[f64],
     ) -> f64 {
         regressor(robot, ws, &self.layout, q, dq, ddq, w);
-        (0..robot.dof()).fold(0.0, |p, i| p + self.joint_power(w, i, dq[i]))
+        (0..robot.dof()).fold(0.0, |p, i| {
+            p + self.joint_power(self.torque(w, i), i, dq[i])
+        })
     }
 
     /// Predicted power of motor `i` (0-based), W: `dq_i tau_i + c_i tau_i^2 + g_i |dq_i
-    /// tau_i| + P0_i` with `tau_i` from row `i` of the regressor `w` already evaluated at the
-    /// state.
-    fn joint_power(&self, w: &DMatrix<f64>, i: usize, dq_i: f64) -> f64 {
-        let tau = self.torque(w, i);
+    /// tau_i| + P0_i` at its torque `tau` ([`PowerModel::torque`] of the state).
+    fn joint_power(&self, tau: f64, i: usize, dq_i: f64) -> f64 {
         let mech = dq_i * tau;
         mech + self.copper[i] * tau * tau + self.gear(i) * mech.abs() + self.constant[i]
     }
@@ -506,6 +506,7 @@ impl PowerModel {
         let mut w = DMatrix::zeros(n, self.layout.len());
         let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let (mut p, mut signs, mut unsure) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut tau, mut dp_dtau) = (vec![0.0; n], vec![0.0; n]);
         let coulomb = self.coulomb_params();
         for &t in t {
             let (model, payload_kg) = models
@@ -527,10 +528,18 @@ impl PowerModel {
                         unsure[i] = model.theta[k].powi(2) * (1.0 - signs[i] * signs[i]);
                     }
                 }
-                p[i] = model.joint_power(&w, i, dq[i]) + model.copper[i] * unsure[i];
+            }
+            for i in 0..n {
+                tau[i] = model.torque(&w, i);
+                p[i] = model.joint_power(tau[i], i, dq[i]) + model.copper[i] * unsure[i];
+                let mech = dq[i] * tau[i];
+                dp_dtau[i] =
+                    dq[i] + 2.0 * model.copper[i] * tau[i] + model.gear(i) * mech.signum() * dq[i];
             }
             f(&StateEval {
                 p: &p,
+                tau: &tau,
+                dp_dtau: &dp_dtau,
                 w: &w,
                 dq: &dq,
                 unsure: &unsure,
@@ -638,14 +647,16 @@ impl PowerModel {
         g: &mut [f64],
     ) {
         let (n, nb) = (self.copper.len(), self.columns.len());
+        // d p / d theta = W^T d p / d tau, one regressor column (contiguous) at a time.
+        let w = e.w.as_slice();
+        for (gk, &c) in g.iter_mut().zip(&self.columns) {
+            let col = &w[c * n..(c + 1) * n];
+            let dot: f64 = col.iter().zip(e.dp_dtau).map(|(a, b)| a * b).sum();
+            *gk += weight * dot;
+        }
         for i in 0..n {
-            let tau = e.model.torque(e.w, i);
+            let tau = e.tau[i];
             let mech = e.dq[i] * tau;
-            let dp_dtau =
-                e.dq[i] + 2.0 * e.model.copper[i] * tau + e.model.gear(i) * mech.signum() * e.dq[i];
-            for (kk, &c) in self.columns.iter().enumerate() {
-                g[kk] += weight * dp_dtau * e.w[(i, c)];
-            }
             g[nb + i] += weight * (tau * tau + e.unsure[i]);
             if !self.gear_friction.is_empty() {
                 g[nb + n + i] += weight * mech.abs();
@@ -670,7 +681,7 @@ impl PowerModel {
                 let beyond = 1.0 - seen / e.payload_kg;
                 (0..e.dq.len())
                     .map(|i| {
-                        let added = e.model.torque(e.w, i) - self.torque(e.w, i);
+                        let added = e.tau[i] - self.torque(e.w, i);
                         beyond * (added * e.dq[i]).abs()
                     })
                     .sum()
@@ -693,11 +704,20 @@ impl PowerModel {
     /// Joint torque of motor `i` (N m, or N m / eta when efficiency-scaled) from row `i` of
     /// the regressor `w` already evaluated at the state.
     fn torque(&self, w: &DMatrix<f64>, i: usize) -> f64 {
-        self.columns
-            .iter()
-            .zip(&self.theta)
-            .map(|(&c, th)| w[(i, c)] * th)
-            .sum()
+        // Column-major: entry (i, c) is at `c n + i`. Four partial sums: one running sum is
+        // a long chain of dependent additions.
+        let (n, w) = (w.nrows(), w.as_slice());
+        let (cols, theta) = (self.columns.chunks_exact(4), self.theta.chunks_exact(4));
+        let rest: f64 = (cols.remainder().iter().zip(theta.remainder()))
+            .map(|(&c, th)| w[c * n + i] * th)
+            .sum();
+        let mut acc = [0.0; 4];
+        for (k, th) in cols.zip(theta) {
+            for j in 0..4 {
+                acc[j] += w[k[j] * n + i] * th[j];
+            }
+        }
+        (acc[0] + acc[1]) + (acc[2] + acc[3]) + rest
     }
 }
 
@@ -705,6 +725,12 @@ impl PowerModel {
 struct StateEval<'a> {
     /// Predicted power of each motor, W.
     p: &'a [f64],
+    /// Each motor's torque under the model in force (N m, or N m / eta when
+    /// efficiency-scaled).
+    tau: &'a [f64],
+    /// Each motor's `d p / d tau` (rad/s): the speed, the copper loss's `2 c tau` and the
+    /// gear friction's `g sign(dq tau) dq`.
+    dp_dtau: &'a [f64],
     /// Each motor's expected squared torque beyond its expected torque squared (N^2 m^2):
     /// `fc^2 (1 - s^2)` for a Coulomb sign `s` the motion is unsure of.
     unsure: &'a [f64],

@@ -241,9 +241,15 @@ impl Trajectory for Fourier {
         q.iter_mut().zip(&self.q0).for_each(|(qi, q0)| *qi = *q0);
         dq.iter_mut().take(dof).for_each(|v| *v = 0.0);
         ddq.iter_mut().take(dof).for_each(|v| *v = 0.0);
+        // Harmonic j's phase is (j + 1) w t: its sine and cosine follow from the first's by
+        // the angle-addition formulas, one `sin_cos` per sample instead of one per harmonic.
+        let (s1, c1) = (w * t).sin_cos();
+        let (mut s, mut c) = (s1, c1);
         for j in 0..self.harmonics() {
             let wj = w * (j + 1) as f64;
-            let (s, c) = (wj * t).sin_cos();
+            if j > 0 {
+                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+            }
             let rows = self.a.iter().zip(&self.b);
             let outputs = q.iter_mut().zip(dq.iter_mut()).zip(ddq.iter_mut());
             for ((ai, bi), ((qi, dqi), ddqi)) in rows.zip(outputs) {

@@ -92,8 +92,13 @@ impl lm::Problem for Projection<'_> {
 
     fn linearise(&mut self) {
         // J has at least as many rows (n_theta + q) as columns (q): its thin QR.
+        // Q^T r by the Householder reflections themselves (Q is never formed): its first q
+        // entries are the thin Q's.
+        let q = self.unknowns();
         let qr = (self.j_phi * &self.dphi).qr();
-        self.jac_qtr = -(qr.q().transpose() * &self.r);
+        let mut qtr = self.r.clone();
+        qr.q_tr_mul(&mut qtr);
+        self.jac_qtr = -qtr.rows(0, q);
         self.jac_r = qr.r();
     }
 
@@ -109,7 +114,8 @@ impl lm::Problem for Projection<'_> {
         let mut b = DVector::zeros(2 * q);
         b.rows_mut(0, q).copy_from(&self.jac_qtr);
         let qr = a.qr();
-        let mut step = qr.r().solve_upper_triangular(&(qr.q().transpose() * b))?;
+        qr.q_tr_mul(&mut b);
+        let mut step = qr.r().solve_upper_triangular(&b.rows(0, q))?;
         if step.iter().any(|v| !v.is_finite()) {
             return None;
         }

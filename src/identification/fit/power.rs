@@ -117,7 +117,7 @@ impl Samples {
 fn torque(wb: &[f64], known: &[f64], theta: &[f64], i: usize) -> f64 {
     let nb = theta.len();
     let row = &wb[i * nb..(i + 1) * nb];
-    row.iter().zip(theta).map(|(a, b)| a * b).sum::<f64>() + known[i]
+    crate::numerics::dot(row, theta) + known[i]
 }
 
 /// The parameters of `z` one joint's power needs: the base parameters, and the copper and
