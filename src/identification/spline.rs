@@ -315,23 +315,52 @@ pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Res
             .sum();
         (se / free as f64).sqrt()
     };
-    // The residual grows with mu: bisect log10(mu / h^5) (h the mean interval) for the RMS.
+    // The residual grows with mu: search e = log10(mu / h^5) (h the mean interval) for the
+    // RMS, keeping a bracket [lo, hi] with the RMS at or below the noise at lo and above it
+    // at hi, until it is as narrow as MU_BISECTIONS halvings would leave it (or lo's RMS is
+    // the noise's to 1e-12). Each step is false position on ln(RMS / noise), a nearly
+    // straight function of e, with the Illinois modification (an end kept twice in a row
+    // has its value halved); a step that did not halve the bracket is followed by a
+    // bisection, so the search never takes more than twice the bisection's solves.
     let h = (t[n - 1] - t[0]) / (n - 1) as f64;
     let mu = |e: f64| h.powi(5) * 10f64.powf(e);
+    let gap = |e: f64| -> Result<f64> { Ok((rms(&solve(mu(e))?) / sigma_rad).ln()) };
     let (mut lo, mut hi) = (-MU_DECADES, MU_DECADES);
-    if rms(&solve(mu(lo))?) >= sigma_rad {
+    let mut f_lo = gap(lo)?;
+    if f_lo >= 0.0 {
         return Ok(y.to_vec());
     }
-    if rms(&solve(mu(hi))?) <= sigma_rad {
+    let f_hi = gap(hi)?;
+    if f_hi <= 0.0 {
         return solve(mu(hi));
     }
-    for _ in 0..MU_BISECTIONS {
-        let mid = 0.5 * (lo + hi);
-        if rms(&solve(mu(mid))?) > sigma_rad {
-            hi = mid;
+    let width = (hi - lo) / 2f64.powi(MU_BISECTIONS as i32);
+    // The ends' values as the false position weighs them (the Illinois halvings).
+    let (mut w_lo, mut w_hi) = (f_lo, f_hi);
+    let (mut kept, mut bisect) = (0i8, false);
+    while hi - lo > width && f_lo < -1e-12 {
+        let before = hi - lo;
+        let secant = hi - w_hi * (hi - lo) / (w_hi - w_lo);
+        let e = if !bisect && secant > lo && secant < hi {
+            secant
         } else {
-            lo = mid;
+            0.5 * (lo + hi)
+        };
+        let f = gap(e)?;
+        if f > 0.0 {
+            (hi, w_hi) = (e, f);
+            if kept == 1 {
+                w_lo *= 0.5;
+            }
+            kept = 1;
+        } else {
+            (lo, f_lo, w_lo) = (e, f, f);
+            if kept == -1 {
+                w_hi *= 0.5;
+            }
+            kept = -1;
         }
+        bisect = !bisect && hi - lo > 0.5 * before;
     }
     let x = solve(mu(lo))?;
     if let Some(bad) = x.iter().find(|v| !v.is_finite()) {
@@ -346,5 +375,6 @@ pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Res
 /// one interval's jerk and one sample's residual count alike).
 const MU_DECADES: f64 = 12.0;
 
-/// Bisection steps of the smoothing weight (resolution 24 / 2^30 decades).
+/// Resolution of the smoothing weight's search: the bracket 30 bisections would leave
+/// (24 / 2^30 decades).
 const MU_BISECTIONS: usize = 30;
