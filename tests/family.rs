@@ -229,9 +229,10 @@ fn identification_finds_the_power_lag() {
     }];
     // (rate, averaging meter, true lag, how close the found lag must be). At 10 Hz with an
     // averaging meter this excitation's power hardly depends on the lag: the fit may keep
-    // none, but must not invent a wrong one.
+    // none, but must not invent a wrong one. At 20 Hz the refinement on the residual's root
+    // mean square found 26.1 ms for 30 ms; on its mean square, 31.9 ms.
     let cases = [
-        (20.0, false, 0.03, 0.006),
+        (20.0, false, 0.03, 0.003),
         (20.0, false, 0.0, 0.006),
         (10.0, true, 0.04, 0.04),
     ];

@@ -9,17 +9,19 @@
 //!
 //! For each trial lag the logs are prepared with the states that much earlier
 //! ([`crate::identification::data::prepare_lagged`]) and the PMSM estimator (unweighted, the
-//! arm's power only, every sample, every copper coefficient free) fitted on the pooled samples; the lag with the least
-//! residual wins: a grid of [`GRID`] points over `+-max`, then [`REFINE`] vertices of the
-//! parabola through the best so far and its neighbours (each trial lag fitted once). The linear estimator without copper loss would not do: with
-//! loads its residual is dominated by the copper loss it lacks and the lag it finds is a
+//! arm's power only, every copper coefficient free) fitted on the pooled samples that move
+//! (the same samples at every trial lag, [`find_lag`]); the lag with the least residual
+//! wins: a grid of [`GRID`] points over `+-max`, then [`REFINE`] vertices of the parabola
+//! through the best so far and its neighbours (each trial lag fitted once). The linear
+//! estimator without copper loss would not do: with loads its residual is dominated by the
+//! copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
 use super::estimate::fit_free;
-use super::samples::Samples;
+use super::samples::{Samples, fitted};
 use super::{Estimator, FitOptions, Weighting};
 use crate::error::Result;
-use crate::identification::data::{Route, prepare_lagged};
+use crate::identification::data::{Prepared, Route, prepare_lagged};
 use crate::identification::model::PowerModel;
 use crate::measurement::Log;
 use crate::model::Robot;
@@ -27,8 +29,13 @@ use crate::model::Robot;
 /// Trial lags of the coarse grid (odd, so 0 is one of them).
 const GRID: usize = 7;
 
-/// Steps of successive parabolic interpolation after the coarse grid.
-const REFINE: usize = 3;
+/// Most steps of successive parabolic interpolation after the coarse grid.
+const REFINE: usize = 6;
+
+/// The refinement stops when its next lag is this close (s) to the best so far: a tenth of
+/// the twin's 1 ms physics step. A lag a millisecond off moved slow held-out moves by about
+/// half a per cent on the family of truths (docs/experiments.md#the-lag-search-and-velocity-reversals).
+const LAG_TOLERANCE_S: f64 = 1e-4;
 
 /// The 99 % point of chi-square with one degree of freedom: the evidence a lag needs.
 const LAG_EVIDENCE: f64 = 6.63;
@@ -36,6 +43,18 @@ const LAG_EVIDENCE: f64 = 6.63;
 /// The lag (s) of the logged power behind the joints in `logs` that the PMSM power model
 /// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off, when the
 /// logs do not fit at all, or when the data cannot tell the lag from none.
+///
+/// The coarse grid fits every sample at every trial lag. The refinement and the evidence fit
+/// every trial lag on the same samples: those at which every excited joint moves at
+/// `opts.min_speed` or faster in the states at the grid's best lag (every sample again where
+/// those do not bracket a least residual). Around a velocity
+/// reversal the model's Coulomb sign flips where the route's velocity crosses zero, while the
+/// arm sticks or slips there; those samples' misfit shifts with the trial lag and pulled the
+/// least residual a millisecond off a true lag of zero
+/// (docs/experiments.md#the-lag-search-and-velocity-reversals). A speed threshold taken at
+/// each trial lag instead would fit other samples at each and make the residual jump between
+/// them. The coarse grid keeps every sample: on the moving samples alone, two 10 Hz averaged
+/// logs left 240, and the grid's residual jumped between 0.9 and 22 W from lag to lag.
 pub(super) fn find_lag(
     robot: &Robot,
     template: &PowerModel,
@@ -47,79 +66,28 @@ pub(super) fn find_lag(
     if max <= 0.0 {
         return Ok(0.0);
     }
-    let rows = std::cell::Cell::new(0usize);
-    // The prior only where the logs cannot be fitted without it: a prior centred on files
-    // that are wrong (a copper coefficient off by half) tilts every trial lag's residual, and
-    // the least of them moves (a third of a sample period on the family of truths,
-    // docs/experiments.md#the-drive-files-copper-as-a-prior).
-    let with_prior = std::cell::Cell::new(false);
-    let fit_at = |lag: f64| -> Result<f64> {
-        let prepared = logs
-            .iter()
-            .enumerate()
-            .map(|(k, l)| prepare_lagged(l, routes[k.min(routes.len() - 1)], lag))
-            .collect::<Result<Vec<_>>>()?;
-        let samples = Samples::new(
-            robot,
-            template,
-            &prepared,
-            // Every sample: a speed threshold would pick other samples at every trial lag
-            // and make the residual jump between them.
-            0.0,
-            opts.max_fit_rate_hz,
-            opts.folds,
-            false,
-        )?;
-        let fitted = |samples: &Samples| -> Result<f64> {
-            let f = fit_free(template, samples, Estimator::Pmsm, Weighting::None)?;
-            rows.set((0..samples.len()).filter(|&m| samples.fit[m]).count());
-            Ok(f.estimate.residual_rms)
-        };
-        if !with_prior.get() {
-            match (fitted(&samples), &opts.prior) {
-                (Ok(c), _) => return Ok(c),
-                // Decided at the first trial lag: the regressor's rank does not depend on it.
-                (Err(_), Some(_)) if rows.get() == 0 => with_prior.set(true),
-                (Err(e), _) => return Err(e),
-            }
-        }
-        // `with_prior` is set only when there is a prior.
-        match &opts.prior {
-            Some(prior) => fitted(&samples.with_prior(prior.clone())?),
-            None => Ok(f64::INFINITY),
-        }
-    };
-    // Each trial lag is fitted once: the search and the evidence share the fits.
-    let tried = std::cell::RefCell::new(Vec::<(f64, f64)>::new());
-    let cost = |lag: f64| -> Result<f64> {
-        if let Some(&(_, c)) = tried.borrow().iter().find(|(l, _)| *l == lag) {
-            return Ok(c);
-        }
-        let c = fit_at(lag)?;
-        tried.borrow_mut().push((lag, c));
-        Ok(c)
+    let mut trials = Trials {
+        robot,
+        template,
+        logs,
+        routes,
+        opts,
+        keep: None,
+        tried: Vec::new(),
+        rows: 0,
+        with_prior: false,
     };
     // Logs too short or too poor for a fit of their own (with the prior, if any) leave the
     // lag at zero; the identification proper then says what they lack.
-    let Ok(at_zero) = cost(0.0) else {
+    if trials.cost(0.0).is_err() {
         return Ok(0.0);
-    };
-    let lag = search(max, &cost)?;
-    // Keep the lag only where the data tell it from none: the likelihood ratio of the fits
-    // at that lag and at zero, `N ln(RSS_0 / RSS_L)`, above the 99 % point of chi-square
-    // with one degree of freedom. A gentle motion's power hardly depends on the lag; its
-    // residual is flat and the least of it noise.
-    let ratio = rows.get() as f64 * 2.0 * (at_zero / cost(lag)?).ln();
-    Ok(if ratio > LAG_EVIDENCE { lag } else { 0.0 })
-}
-
-/// The least-cost lag within `+-max`: the best of a coarse grid, then [`REFINE`] steps of
-/// successive parabolic interpolation inside the bracket of its neighbours; 0 when the grid's
-/// best is on its edge.
-fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
+    }
     let step = 2.0 * max / (GRID - 1) as f64;
     let grid: Vec<f64> = (0..GRID).map(|k| -max + k as f64 * step).collect();
-    let costs = grid.iter().map(|&l| cost(l)).collect::<Result<Vec<_>>>()?;
+    let costs = grid
+        .iter()
+        .map(|&l| trials.cost(l))
+        .collect::<Result<Vec<_>>>()?;
     let k = (0..GRID)
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap_or(GRID / 2);
@@ -130,30 +98,161 @@ fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
     if k == 0 || k == GRID - 1 {
         return Ok(0.0);
     }
-    // The bracket (a, b, c): a < b < c, f(b) <= f(a), f(c).
+    let Some(lag) = trials.refine_around(k, &grid)? else {
+        return Ok(0.0);
+    };
+    // Keep the lag only where the data tell it from none: the likelihood ratio of the fits
+    // at that lag and at zero, `N ln(RSS_0 / RSS_L)`, above the 99 % point of chi-square
+    // with one degree of freedom. A gentle motion's power hardly depends on the lag; its
+    // residual is flat and the least of it noise.
+    let ratio = trials.rows as f64 * 2.0 * (trials.cost(0.0)? / trials.cost(lag)?).ln();
+    Ok(if ratio > LAG_EVIDENCE { lag } else { 0.0 })
+}
+
+/// The fits of trial lags on one set of samples, each lag fitted once.
+struct Trials<'a> {
+    robot: &'a Robot,
+    template: &'a PowerModel,
+    logs: &'a [Log],
+    routes: &'a [Route],
+    opts: &'a FitOptions,
+    /// Observations fitted on (the logs' samples one after another); `None`: all of them.
+    keep: Option<Vec<bool>>,
+    /// (lag, residual RMS) of the lags fitted on `keep`.
+    tried: Vec<(f64, f64)>,
+    /// Observations the last fit used.
+    rows: usize,
+    /// Whether the fits add the prior: decided at the first fit on `keep`, since the
+    /// regressor's rank does not depend on the lag.
+    with_prior: bool,
+}
+
+impl Trials<'_> {
+    /// The logs prepared with the states `lag` s earlier than the power.
+    fn prepare(&self, lag: f64) -> Result<Vec<Prepared>> {
+        self.logs
+            .iter()
+            .enumerate()
+            .map(|(k, l)| prepare_lagged(l, self.routes[k.min(self.routes.len() - 1)], lag))
+            .collect()
+    }
+
+    /// Fit every trial lag from now on on the samples that move at lag `lag`.
+    fn refer_to(&mut self, lag: f64) -> Result<()> {
+        self.keep = Some(
+            self.prepare(lag)?
+                .iter()
+                .flat_map(|p| fitted(p, self.opts.min_speed, 0.0))
+                .collect(),
+        );
+        self.tried.clear();
+        self.rows = 0;
+        self.with_prior = false;
+        Ok(())
+    }
+
+    /// The least-cost lag between the grid's neighbours of its best point `grid[k]`, refined
+    /// on the samples that move at `grid[k]`. Where those fail to fit, or no longer bracket
+    /// a least residual, on every sample as the grid was: a gentle unloaded motion's power is
+    /// mostly friction, whose lag shows at the reversals. `None`: no bracket either way.
+    fn refine_around(&mut self, k: usize, grid: &[f64]) -> Result<Option<f64>> {
+        let bracket = [grid[k - 1], grid[k], grid[k + 1]];
+        let every = (std::mem::take(&mut self.tried), self.rows, self.with_prior);
+        if self.refer_to(grid[k]).is_ok()
+            && let Ok(Some(lag)) = refine(bracket, &mut |l| self.cost(l))
+        {
+            return Ok(Some(lag));
+        }
+        self.keep = None;
+        (self.tried, self.rows, self.with_prior) = every;
+        refine(bracket, &mut |l| self.cost(l))
+    }
+
+    /// Residual RMS (W) of the PMSM fit at `lag` (s).
+    fn cost(&mut self, lag: f64) -> Result<f64> {
+        if let Some(&(_, c)) = self.tried.iter().find(|(l, _)| *l == lag) {
+            return Ok(c);
+        }
+        let c = self.fit(lag)?;
+        self.tried.push((lag, c));
+        Ok(c)
+    }
+
+    fn fit(&mut self, lag: f64) -> Result<f64> {
+        let prepared = self.prepare(lag)?;
+        let mut samples = Samples::new(
+            self.robot,
+            self.template,
+            &prepared,
+            0.0,
+            self.opts.max_fit_rate_hz,
+            self.opts.folds,
+            false,
+        )?;
+        if let Some(keep) = &self.keep {
+            samples.keep_only(keep)?;
+        }
+        let rows = (0..samples.len()).filter(|&m| samples.fit[m]).count();
+        let fitted = |samples: &Samples| -> Result<f64> {
+            let f = fit_free(self.template, samples, Estimator::Pmsm, Weighting::None)?;
+            Ok(f.estimate.residual_rms)
+        };
+        // The prior only where the logs cannot be fitted without it: a prior centred on
+        // files that are wrong (a copper coefficient off by half) tilts every trial lag's
+        // residual, and the least of them moves (a third of a sample period on the family of
+        // truths, docs/experiments.md#the-drive-files-copper-as-a-prior).
+        if !self.with_prior {
+            match (fitted(&samples), &self.opts.prior) {
+                (Ok(c), _) => {
+                    self.rows = rows;
+                    return Ok(c);
+                }
+                (Err(_), Some(_)) if self.rows == 0 => self.with_prior = true,
+                (Err(e), _) => return Err(e),
+            }
+        }
+        // `with_prior` is set only when there is a prior.
+        let c = match &self.opts.prior {
+            Some(prior) => fitted(&samples.with_prior(prior.clone())?)?,
+            None => f64::INFINITY,
+        };
+        self.rows = rows;
+        Ok(c)
+    }
+}
+
+/// The least-cost lag inside `bracket` (`a < b < c`; `None` unless the cost at `b` is no more
+/// than at `a` and `c`): successive parabolic interpolation on the mean square residual, which is quadratic
+/// in the lag near its least value (the residual is linear in a small change of lag; its root
+/// is not, and a parabola through the root mean squares converged a few milliseconds short
+/// of a 30 ms lag in three steps). At most [`REFINE`] steps; it stops when the vertex moves
+/// less than [`LAG_TOLERANCE_S`].
+fn refine(bracket: [f64; 3], cost: &mut dyn FnMut(f64) -> Result<f64>) -> Result<Option<f64>> {
     let mut br = [
-        (grid[k - 1], costs[k - 1]),
-        (grid[k], costs[k]),
-        (grid[k + 1], costs[k + 1]),
+        (bracket[0], cost(bracket[0])?),
+        (bracket[1], cost(bracket[1])?),
+        (bracket[2], cost(bracket[2])?),
     ];
+    if !(br[1].1 <= br[0].1 && br[1].1 <= br[2].1) {
+        return Ok(None);
+    }
     for _ in 0..REFINE {
         let [(a, fa), (b, fb), (c, fc)] = br;
-        // The vertex of the parabola through the three, kept a tenth of the bracket away
-        // from its ends and from b (a flat or degenerate parabola: the larger half's middle).
-        let den = (b - a) * (fb - fc) - (b - c) * (fb - fa);
-        let num = (b - a).powi(2) * (fb - fc) - (b - c).powi(2) * (fb - fa);
-        let gap = 0.1 * (c - a);
-        let mut x = if den.abs() > 0.0 {
-            b - 0.5 * num / den
+        let (sa, sb, sc) = (fa * fa, fb * fb, fc * fc);
+        let den = (b - a) * (sb - sc) - (b - c) * (sb - sa);
+        let num = (b - a).powi(2) * (sb - sc) - (b - c).powi(2) * (sb - sa);
+        let vertex = b - 0.5 * num / den;
+        // A vertex outside the bracket (a flat or degenerate parabola): the larger half's
+        // middle instead.
+        let x = if vertex > a && vertex < c {
+            vertex
+        } else if b - a > c - b {
+            0.5 * (a + b)
         } else {
-            f64::NAN
+            0.5 * (b + c)
         };
-        if !(x > a + gap && x < c - gap) || (x - b).abs() < 0.5 * gap {
-            x = if b - a > c - b {
-                0.5 * (a + b)
-            } else {
-                0.5 * (b + c)
-            };
+        if (x - b).abs() < LAG_TOLERANCE_S {
+            break;
         }
         let fx = cost(x)?;
         br = match (x < b, fx <= fb) {
@@ -163,5 +262,35 @@ fn search(max: f64, cost: &dyn Fn(f64) -> Result<f64>) -> Result<f64> {
             (false, false) => [(a, fa), (b, fb), (x, fx)],
         };
     }
-    Ok(br[1].0)
+    Ok(Some(br[1].0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A residual whose mean square is quadratic in the lag (its root is not): the refinement
+    /// lands on the least value from a coarse bracket, in few fits.
+    #[test]
+    fn refinement_finds_the_least_mean_square() {
+        for truth in [0.0, 0.0123, 0.03, -0.021] {
+            let mut fits = 0;
+            let mut cost = |l: f64| -> Result<f64> {
+                fits += 1;
+                Ok((1.0 + 4.0e4 * (l - truth).powi(2)).sqrt())
+            };
+            let grid = 0.1 / 3.0;
+            let b = (truth / grid).round() * grid;
+            let lag = refine([b - grid, b, b + grid], &mut cost).unwrap().unwrap();
+            assert!((lag - truth).abs() < LAG_TOLERANCE_S, "{truth}: {lag}");
+            assert!(fits <= 5, "{truth}: {fits} fits");
+        }
+    }
+
+    /// A middle point that is not the least of the three brackets nothing.
+    #[test]
+    fn a_bracket_without_a_least_middle_is_refused() {
+        let mut cost = |l: f64| -> Result<f64> { Ok(1.0 + l) };
+        assert_eq!(refine([-0.1, 0.0, 0.1], &mut cost).unwrap(), None);
+    }
 }

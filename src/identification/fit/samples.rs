@@ -278,6 +278,20 @@ impl Samples {
     /// The samples with `prior` on their base parameters: each fit is then the posterior
     /// (the data decide the directions they determine, the prior the rest). Errors: a prior
     /// of another base-parameter count.
+    /// Fit only on the observations that `keep` (one per observation) marks as well.
+    /// Errors: a mask of another length.
+    pub(super) fn keep_only(&mut self, keep: &[bool]) -> Result<()> {
+        if keep.len() != self.fit.len() {
+            return Err(Error::InvalidInput(format!(
+                "a mask of {} observations for {}",
+                keep.len(),
+                self.fit.len()
+            )));
+        }
+        self.fit.iter_mut().zip(keep).for_each(|(f, &k)| *f &= k);
+        Ok(())
+    }
+
     pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
         if prior.mean.len() != self.nb || prior.copper.len() != self.n || prior.gear.len() != self.n
         {
@@ -504,7 +518,7 @@ fn payload_spans(
 /// A log faster than `max_rate_hz` (0: no limit) is fitted on every `k`-th state only, `k` the
 /// whole number of its samples in `1 / max_rate_hz` (all still count in the cross-validated
 /// energies).
-fn fitted(p: &Prepared, min_speed: f64, max_rate_hz: f64) -> Vec<bool> {
+pub(super) fn fitted(p: &Prepared, min_speed: f64, max_rate_hz: f64) -> Vec<bool> {
     let len = p.states.len();
     let stride = fit_stride(&p.states.t, max_rate_hz);
     let mut fit = vec![false; len];
