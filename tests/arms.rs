@@ -591,6 +591,13 @@ fn a_family_of_ur5s_is_identified_from_a_set_derived_for_the_arm() {
     let robot = &v["robots"][0];
     assert_eq!(robot["model"], "cv:pmsm", "{robot}");
     assert_eq!(robot["motions"], 6, "{robot}");
+    // The lag identification found is reported beside the drawn one (30 ms, found as 30.1).
+    let (drawn, found) = (&robot["power_lag_s"], &robot["fitted_power_lag_s"]);
+    let (drawn, found) = (drawn.as_f64().unwrap(), found.as_f64().unwrap());
+    assert!(
+        (found - drawn).abs() < 0.002,
+        "drawn {drawn} s, found {found} s"
+    );
     let error = &v["from_log"]["energy_error_pct"];
     eprintln!("a UR5 of the family, 6 held-out motions: energy error from the log {error}");
     assert!(error["worst"].as_f64().unwrap() < 3.0, "{error}");

@@ -276,13 +276,14 @@ fn family_table(f: &Family) -> String {
     let mut o = String::new();
     outln!(
         o,
-        "{:>3} {:>12} {:>6} {:>4} {:>5} {:>6} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>7} {:<14}",
+        "{:>3} {:>12} {:>6} {:>4} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>7} {:<14}",
         "#",
         "family seed",
         "Hz",
         "avg",
         "cab W",
         "lag ms",
+        "fit ms",
         "log med%",
         "log max%",
         "plan max%",
@@ -295,13 +296,14 @@ fn family_table(f: &Family) -> String {
     for r in &f.robots {
         outln!(
             o,
-            "{:>3} {:>12} {:>6.0} {:>4} {:>5.0} {:>6.0} {:>8.3} {:>8.3} {:>8.3} {:>6.0} {:>8.2} {:>8.2} {:>7} {:<14}",
+            "{:>3} {:>12} {:>6.0} {:>4} {:>5.0} {:>6.0} {:>6.1} {:>8.3} {:>8.3} {:>8.3} {:>6.0} {:>8.2} {:>8.2} {:>7} {:<14}",
             r.index,
             r.family_seed,
             r.rate_hz,
             if r.power_averaging { "yes" } else { "no" },
             r.cabinet_seen_w,
             1e3 * r.power_lag_s,
+            1e3 * r.fitted_power_lag_s,
             r.from_log.energy_error_pct.median,
             r.from_log.energy_error_pct.worst,
             r.from_plan.energy_error_pct.worst,

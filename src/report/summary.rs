@@ -221,14 +221,14 @@ pub(crate) fn family(w: &mut String, r: &Value) {
     let _ = writeln!(
         w,
         "| robot | family seed | log rate Hz | averaging meter | cabinet seen W | power lag ms | \
-         from the log, median | worst | coverage |"
+         lag found ms | from the log, median | worst | coverage |"
     );
-    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(w, "|---|---|---|---|---|---|---|---|---|---|");
     for b in robots {
         let n = |f: &str| b.pointer(f).and_then(Value::as_f64);
         let _ = writeln!(
             w,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             fixed(n("/index"), 0),
             fixed(n("/family_seed"), 0),
             fixed(n("/rate_hz"), 0),
@@ -239,6 +239,7 @@ pub(crate) fn family(w: &mut String, r: &Value) {
             },
             fixed(n("/cabinet_seen_W"), 0),
             fixed(n("/power_lag_s").map(|l| 1e3 * l), 0),
+            fixed(n("/fitted_power_lag_s").map(|l| 1e3 * l), 1),
             pct(n("/from_log/energy_error_pct/median")),
             pct(n("/from_log/energy_error_pct/worst")),
             n("/from_log/coverage_pct").map_or(MISSING.to_string(), |c| format!("{c:.0} %")),

@@ -78,6 +78,8 @@ pub struct FamilyRobot {
     pub cabinet_seen_w: f64,
     /// Power lag, s.
     pub power_lag_s: f64,
+    /// The power lag its identification found, s (scored against `power_lag_s`).
+    pub fitted_power_lag_s: f64,
     /// Largest tracking error over the held-out motions, rad.
     pub max_tracking_error_rad: f64,
     /// The estimator cross-validation chose.
@@ -178,7 +180,7 @@ fn one_robot(
             .table
             .draw(rig.robot, rig.drive, &rig.twin, &rig.sensor, seed)?;
         match benchmark(rig, &plant, opts, progress)? {
-            Ok((model, heldouts)) => {
+            Ok((model, fitted_lag, heldouts)) => {
                 let motions: Vec<MotionResult> =
                     heldouts.into_iter().flat_map(|h| h.motions).collect();
                 let d = &plant.draw;
@@ -190,6 +192,7 @@ fn one_robot(
                     power_averaging: d.power_averaging,
                     cabinet_seen_w: plant.twin.cabinet_power_w,
                     power_lag_s: d.power_lag_s,
+                    fitted_power_lag_s: fitted_lag,
                     max_tracking_error_rad: motions
                         .iter()
                         .map(|m| m.max_tracking_error_rad)
@@ -218,15 +221,16 @@ fn one_robot(
     )))
 }
 
-/// Identify `plant` the way a user would and score it on the held-out sets; `Ok(Err(why))`
-/// when a twin run saturated (the robot must be redrawn).
+/// Identify `plant` the way a user would and score it on the held-out sets: the chosen
+/// estimator's name, the power lag found (s) and the held-out sets; `Ok(Err(why))` when a
+/// twin run saturated (the robot must be redrawn).
 #[allow(clippy::type_complexity)]
 fn benchmark(
     rig: &Rig,
     plant: &Plant,
     opts: &FamilyOptions,
     progress: &dyn Progress,
-) -> Result<std::result::Result<(String, Vec<Heldout>), String>> {
+) -> Result<std::result::Result<(String, f64, Vec<Heldout>), String>> {
     let family_rig = Rig {
         plant: Some(plant),
         ..rig.clone()
@@ -260,6 +264,7 @@ fn benchmark(
     }
     Ok(Ok((
         format!("cv:{}", set.selection.chosen.name()),
+        model.power_lag_s,
         heldouts,
     )))
 }
