@@ -9,10 +9,10 @@
 //!
 //! For each trial lag the logs are prepared with the states that much earlier
 //! ([`crate::identification::data::prepare_lagged`]) and the PMSM estimator (unweighted, the
-//! arm's power only, every copper coefficient free) fitted on the pooled samples that move
-//! (the same samples at every trial lag, [`find_lag`]); the lag with the least residual
-//! wins: a grid of [`GRID`] points over `+-max`, then [`REFINE`] vertices of the parabola
-//! through the best so far and its neighbours (each trial lag fitted once). The linear
+//! arm's power only, every copper coefficient free) fitted on the pooled samples; the lag
+//! with the least residual wins: a grid of [`GRID`] points over `+-max` on every sample,
+//! then at most [`REFINE`] vertices of the parabola through the best so far and its
+//! neighbours, on the samples that move ([`find_lag`]; each trial lag fitted once). The linear
 //! estimator without copper loss would not do: with loads its residual is dominated by the
 //! copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
@@ -33,8 +33,8 @@ const GRID: usize = 7;
 const REFINE: usize = 6;
 
 /// The refinement stops when its next lag is this close (s) to the best so far: a tenth of
-/// the twin's 1 ms physics step. A lag a millisecond off moved slow held-out moves by about
-/// half a per cent on the family of truths (docs/experiments.md#the-lag-search-and-velocity-reversals).
+/// the twin's 1 ms physics step; slow held-out moves are sensitive to a millisecond
+/// (docs/experiments.md#the-lag-search-and-velocity-reversals).
 const LAG_TOLERANCE_S: f64 = 1e-4;
 
 /// The 99 % point of chi-square with one degree of freedom: the evidence a lag needs.
@@ -47,14 +47,13 @@ const LAG_EVIDENCE: f64 = 6.63;
 /// The coarse grid fits every sample at every trial lag. The refinement and the evidence fit
 /// every trial lag on the same samples: those at which every excited joint moves at
 /// `opts.min_speed` or faster in the states at the grid's best lag (every sample again where
-/// those do not bracket a least residual). Around a velocity
-/// reversal the model's Coulomb sign flips where the route's velocity crosses zero, while the
-/// arm sticks or slips there; those samples' misfit shifts with the trial lag and pulled the
-/// least residual a millisecond off a true lag of zero
+/// those do not bracket a least residual). Around a velocity reversal the model's Coulomb
+/// sign flips where the route's velocity crosses zero, while the arm sticks or slips there;
+/// that misfit shifts with the trial lag and pulls the least residual off the true lag
 /// (docs/experiments.md#the-lag-search-and-velocity-reversals). A speed threshold taken at
 /// each trial lag instead would fit other samples at each and make the residual jump between
-/// them. The coarse grid keeps every sample: on the moving samples alone, two 10 Hz averaged
-/// logs left 240, and the grid's residual jumped between 0.9 and 22 W from lag to lag.
+/// them. The coarse grid keeps every sample: a short, slow log leaves too few moving samples
+/// for a grid whose fits can be compared.
 pub(super) fn find_lag(
     robot: &Robot,
     template: &PowerModel,
@@ -222,11 +221,10 @@ impl Trials<'_> {
 }
 
 /// The least-cost lag inside `bracket` (`a < b < c`; `None` unless the cost at `b` is no more
-/// than at `a` and `c`): successive parabolic interpolation on the mean square residual, which is quadratic
-/// in the lag near its least value (the residual is linear in a small change of lag; its root
-/// is not, and a parabola through the root mean squares converged a few milliseconds short
-/// of a 30 ms lag in three steps). At most [`REFINE`] steps; it stops when the vertex moves
-/// less than [`LAG_TOLERANCE_S`].
+/// than at `a` and `c`): successive parabolic interpolation on the mean square residual,
+/// which is quadratic in the lag near its least value (the residual is linear in a small
+/// change of lag; its root mean square is V-shaped, and parabolas through it stop short). At
+/// most [`REFINE`] steps; it stops when the vertex moves less than [`LAG_TOLERANCE_S`].
 fn refine(bracket: [f64; 3], cost: &mut dyn FnMut(f64) -> Result<f64>) -> Result<Option<f64>> {
     let mut br = [
         (bracket[0], cost(bracket[0])?),
