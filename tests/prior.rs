@@ -385,3 +385,103 @@ fn identify_reports_what_the_data_determined() {
         assert!(err.contains(says), "{bad:?}: {err}");
     }
 }
+
+/// A fast IRB 1200 excitation (0.5 Hz, 2 harmonics, `periods` periods) about `q0` that
+/// regenerates hard: the DC bus falls to its clip.
+fn fast_excitation(
+    q0: Vec<f64>,
+    sign: f64,
+    periods: f64,
+) -> powertwin::trajectory::fourier::Fourier {
+    let n = q0.len();
+    powertwin::trajectory::fourier::Fourier::new(
+        0.5,
+        q0,
+        vec![vec![0.6 * sign, -0.25]; n],
+        vec![vec![0.4, 0.2 * sign]; n],
+        periods,
+    )
+    .unwrap()
+}
+
+/// A meter that sees a 50 W cabinet after the DC bus's clip reads `max(P, 50 W)`. Logs that
+/// brake down to that floor, identified with the drive file's standby (a data-sheet value),
+/// find the samples the model puts below the fitted standby less the file's, and read the
+/// floor there within 1 W (the file's standby alone gives it only within the file's error).
+/// A held-out motion that regenerates is then predicted far closer than by the same
+/// identification without the file's standby (the bus clipped at 0, the floor's samples
+/// misfitted).
+#[test]
+fn the_drive_files_standby_finds_a_cabinet_after_the_bus_clip() {
+    use powertwin::identification::data::Route;
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let base = common::irb1200_rig(
+        &robot,
+        &drive,
+        Fidelity::Realistic,
+        NoiseSettings::default(),
+    );
+    let rig = Rig {
+        sensor: SensorSettings {
+            rate_hz: 20.0,
+            ..base.sensor
+        },
+        twin: TwinConfig {
+            cabinet_power_w: 50.0,
+            ..base.twin.clone()
+        },
+        ..base.clone()
+    };
+    let ident = fast_excitation(vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0], 1.0, 4.0);
+    let logs: Vec<Log> = (0..2).map(|k| log_of(&rig, &ident, k)).collect();
+    let held_out = fast_excitation(vec![0.3, 0.1, 0.0, 0.2, 0.6, 0.1], -1.0, 2.0);
+    let run = rig.run(&held_out, &[], 9, serde_json::json!({})).unwrap();
+    let true_j = run.truth.energy_grid();
+    let prior = Prior::for_robot(&robot, Some(&drive), &PriorWidths::default()).unwrap();
+    assert_eq!(
+        prior.standby_w,
+        Some(18.5),
+        "the IRB 1200 drive file's standby"
+    );
+    let route = [Route::Fourier {
+        base_freq_hz: 0.5,
+        harmonics: 2,
+    }];
+    let identify = |prior: Prior| {
+        let opts = FitOptions {
+            max_power_lag_s: 0.0,
+            ..fit_options(Some(prior))
+        };
+        identify_logs(&robot, &logs, &route, &opts)
+            .unwrap()
+            .fit
+            .model
+    };
+    let with = identify(prior.clone());
+    let without = identify(Prior {
+        standby_w: None,
+        ..prior
+    });
+    let floor = with
+        .bus_floor
+        .expect("a floor read from the drive file's standby");
+    assert!(
+        (floor - 50.0).abs() < 1.0,
+        "floor {floor:.2} W under a 50 W cabinet"
+    );
+    assert_eq!(without.bus_floor, None);
+    let predict = |m: &PowerModel| {
+        let p = m.predict(&robot, &held_out, &[], 1.0, 1e-3).unwrap();
+        (p.energy_j - true_j, p.interval_j)
+    };
+    let ((err_with, int_with), (err_without, _)) = (predict(&with), predict(&without));
+    eprintln!(
+        "floor {floor:.2} W; true {true_j:.1} J: with the floor {err_with:+.1} +- {int_with:.1} J, without \
+         {err_without:+.1} J"
+    );
+    assert!(
+        err_with.abs() <= int_with && 3.0 * err_with.abs() < err_without.abs(),
+        "with the floor {err_with:+.1} +- {int_with:.1} J, without {err_without:+.1} J"
+    );
+}

@@ -688,7 +688,11 @@ fn write_and_report(
         report_determination(d);
     }
     if let Some(low) = model.lowest_seen {
-        report_lowest_seen(low, estimates.last().map_or(0.0, |e| e.residual_rms));
+        report_lowest_seen(
+            low,
+            model.bus_floor,
+            estimates.last().map_or(0.0, |e| e.residual_rms),
+        );
     }
     if let Some(kg) = model.payload_seen {
         eprintln!(
@@ -708,6 +712,7 @@ fn write_and_report(
             "physically_consistent": consistency.consistent,
             "determination": determination,
             "lowest_seen_W": model.lowest_seen,
+            "bus_floor_W": model.bus_floor,
             "payload_seen_kg": model.payload_seen,
             "holdout": held_out,
         });
@@ -738,14 +743,26 @@ fn report_determination(d: &Determination) {
     }
 }
 
-/// Print the lowest level the logs show a clipped meter at, and how to see it lower when it
-/// stays above zero by more than the fit's residual (`residual_w`, W).
-fn report_lowest_seen(low: f64, residual_w: f64) {
+/// Print the lowest level the logs show a clipped meter at, the floor under its reading
+/// (`floor_w`, W: [`PowerModel::bus_floor`], `None` without the drive file's standby), and how to see it lower when it stays above zero by more than the fit's residual
+/// (`residual_w`, W).
+fn report_lowest_seen(low: f64, floor_w: Option<f64>, residual_w: f64) {
     eprintln!(
         "lowest power the logs show the meter at: {low:.1} W; below it what the meter reads is \
          undetermined (a cabinet load after the bus clip would hold it up): predictions' \
          intervals hold half the energy spent below it"
     );
+    match floor_w {
+        Some(f) => eprintln!(
+            "floor under the meter's reading: {f:.1} W (where the logs brake down to it, what \
+             they read there, else the fitted standby less the drive file's): predictions read \
+             the power no lower"
+        ),
+        None => eprintln!(
+            "floor under the meter's reading: 0 W (the drive file gives no standby power to \
+             tell a cabinet load after the bus clip from the drives' own)"
+        ),
+    }
     if low > 2.0 * residual_w {
         eprintln!(
             "to determine it: add a run that brakes hard enough for the meter to reach 0 W \

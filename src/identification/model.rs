@@ -123,6 +123,18 @@ pub struct PowerModel {
         skip_serializing_if = "Option::is_none"
     )]
     pub lowest_seen: Option<f64>,
+    /// For a clipped signal (DC bus, grid): the floor under the reading, W. A meter that sees
+    /// a load the bus clip does not (a cabinet after the clip) reads `max(P, F)` of the
+    /// modelled power `P`, whose constant has absorbed that load. Read from the logs where
+    /// the arm brakes them down to it, else the fitted constant less the drive file's standby
+    /// powers within `[0, lowest_seen_W]` (`None`: 0, no drive file's standby, an unclipped
+    /// signal or an older file).
+    #[serde(
+        default,
+        rename = "bus_floor_W",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub bus_floor: Option<f64>,
     /// The heaviest payload the identification logs carried (tool and load at the flange),
     /// kg. A prediction with a heavier payload adds
     /// [`crate::identification::tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy the excess
@@ -176,6 +188,7 @@ impl PowerModel {
             structure_rel: 0.0,
             structure_active: 0.0,
             lowest_seen: None,
+            bus_floor: None,
             payload_seen: None,
             power_lag_s: 0.0,
             without_gear: None,
@@ -261,6 +274,11 @@ impl PowerModel {
             && !v.is_finite()
         {
             return Err(bad(format!("lowest_seen_W = {v} must be finite")));
+        }
+        if let Some(v) = self.bus_floor
+            && !(v.is_finite() && v >= 0.0)
+        {
+            return Err(bad(format!("bus_floor_W = {v} must be finite and >= 0")));
         }
         if let Some(v) = self.payload_seen
             && !(v.is_finite() && v >= 0.0)
@@ -437,6 +455,17 @@ impl PowerModel {
         })
     }
 
+    /// What the modelled meter reads, W, when the modelled power is `total_w`: a clipped
+    /// signal (DC bus, grid) reads no less than its floor ([`PowerModel::bus_floor`], 0
+    /// without one), an unclipped one reads the power.
+    pub fn reading(&self, total_w: f64) -> f64 {
+        if self.signal.clipped() {
+            total_w.max(self.bus_floor.unwrap_or(0.0))
+        } else {
+            total_w
+        }
+    }
+
     /// Predicted total motor power (W) along `traj` at the times `t` (s, within the
     /// trajectory), with the payloads of `events` as in [`PowerModel::energy_with_payloads`].
     pub fn power_with_payloads(
@@ -586,6 +615,11 @@ impl PowerModel {
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
         let mut unseen_load = 0.0;
         let lowest_seen = if clipped { self.lowest_seen } else { None };
+        let floor = if clipped {
+            self.bus_floor.unwrap_or(0.0)
+        } else {
+            0.0
+        };
         let standby: f64 = self.constant.iter().sum();
         let mut g = vec![0.0; np];
         let coulomb = self.coulomb_params();
@@ -595,14 +629,15 @@ impl PowerModel {
             k += 1;
             let total: f64 = e.p.iter().sum();
             motor += weight * total;
-            grid += weight * total.max(0.0);
-            let signal = if clipped { total.max(0.0) } else { total };
+            grid += weight * total.max(floor);
+            let signal = self.reading(total);
             active += weight * (signal - standby).abs();
             if let Some(low) = lowest_seen {
-                unseen += weight * (low - signal).max(0.0);
+                // The reading below `low` lies between the power clipped at 0 and `low`.
+                unseen += weight * (low - total.max(0.0)).max(0.0);
             }
             unseen_load += weight * self.unseen_load_power(e);
-            if !(clipped && total < 0.0) {
+            if !(clipped && total < floor) {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
         })?;
@@ -748,7 +783,7 @@ struct StateEval<'a> {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Prediction {
     /// Predicted energy of the modelled signal (the motor sum, or the DC bus / grid power
-    /// clipped at zero), J.
+    /// clipped at its floor, [`PowerModel::reading`]), J.
     #[serde(rename = "energy_J")]
     pub energy_j: f64,
     /// Half-width of the 95 % interval of `energy_j`, J.
@@ -757,7 +792,8 @@ pub struct Prediction {
     /// Integral of the predicted motor sum, J (regenerated energy counts negative).
     #[serde(rename = "motor_J")]
     pub motor_j: f64,
-    /// Integral of `max(P, 0)`, J.
+    /// Integral of `max(P, F)` with `F` the floor of a clipped signal (0 for an unclipped
+    /// one), J.
     #[serde(rename = "grid_J")]
     pub grid_j: f64,
     /// Duration of the motion, s.
@@ -787,7 +823,8 @@ pub struct EnergyPrediction {
     /// Integral of the predicted total motor power, J (regenerated energy counts negative).
     #[serde(rename = "motor_J")]
     pub motor_j: f64,
-    /// Integral of the predicted grid-side power `max(P, 0)`, J (no energy fed back).
+    /// Integral of the predicted grid-side power `max(P, F)`, J (no energy fed back; `F` the
+    /// floor of a clipped signal, 0 for an unclipped one).
     #[serde(rename = "grid_J")]
     pub grid_j: f64,
 }

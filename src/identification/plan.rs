@@ -68,7 +68,7 @@ pub struct PlanPrice {
     /// Times of the power samples, s (trajectory time, from 0).
     pub t_s: Vec<f64>,
     /// Predicted power of the modelled signal at those times, W (for a clipped signal, DC bus
-    /// or grid, never negative).
+    /// or grid, never below its floor: [`PowerModel::reading`]).
     pub power_w: Vec<f64>,
 }
 
@@ -103,9 +103,7 @@ pub fn price(
 ) -> Result<PlanPrice> {
     let prediction = model.predict(robot, traj, events, efficiency, PLAN_DT_S)?;
     let mut power_w = model.power_with_payloads(robot, traj, events, efficiency, t_s)?;
-    if model.signal.clipped() {
-        power_w.iter_mut().for_each(|p| *p = p.max(0.0));
-    }
+    power_w.iter_mut().for_each(|p| *p = model.reading(*p));
     Ok(PlanPrice {
         prediction,
         t_s: t_s.to_vec(),

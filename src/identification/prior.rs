@@ -114,6 +114,10 @@ pub struct Prior {
     /// braking values, the form the `gear` estimator fits), dimensionless, with its width;
     /// `None` where the file gives none.
     pub gear: Vec<Option<Normal>>,
+    /// The drive file's standby power summed over the drives, W (`None` where it gives none):
+    /// what the fitted constant holds beyond it is a load the meter sees after the bus clip
+    /// ([`crate::identification::model::PowerModel::bus_floor`]).
+    pub standby_w: Option<f64>,
 }
 
 /// A normal distribution of one value.
@@ -192,12 +196,16 @@ impl Prior {
                 })
             })
             .collect();
+        let standby_w = drive
+            .map(|d| d.joints().iter().map(|j| j.standby_power).sum::<f64>())
+            .filter(|w| *w > 0.0);
         Ok(Prior {
             mean: base.base_values(&phi)?,
             covariance,
             root_precision: l_inv,
             copper,
             gear,
+            standby_w,
         })
     }
 

@@ -75,6 +75,9 @@ pub struct ModelInfo {
     /// is undetermined and widens the intervals of motions that go there.
     #[serde(rename = "lowest_seen_W")]
     pub lowest_seen_w: Option<f64>,
+    /// Floor under a clipped meter's reading, W: the fitted standby less the drive file's.
+    #[serde(rename = "bus_floor_W")]
+    pub bus_floor_w: Option<f64>,
     /// Weighting of the samples in the fit (`none`, `per-log`, `power-level`).
     pub weighting: Weighting,
     /// Whether the model was made physically consistent in the pipeline.
@@ -257,6 +260,7 @@ impl Results {
                 structure_rel: outcome.model.structure_rel,
                 structure_active_w: outcome.model.structure_active,
                 lowest_seen_w: outcome.model.lowest_seen,
+                bus_floor_w: outcome.model.bus_floor,
                 weighting: outcome.idset.weighting,
                 consistent: outcome.idset.selection.consistent.is_some(),
                 motor_power: outcome.idset.selection.motor_power,

@@ -244,10 +244,7 @@ pub fn heldout_motion(
         let se: f64 = p
             .iter()
             .zip(&log.power_w)
-            .map(|(p, y)| {
-                let p = if clipped { p.max(0.0) } else { *p };
-                (p - y).powi(2)
-            })
+            .map(|(p, y)| (mm.reading(*p) - y).powi(2))
             .sum();
         Ok((se / log.len() as f64).sqrt())
     };

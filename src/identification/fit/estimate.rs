@@ -4,6 +4,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::floor::Floor;
 use super::nonlinear::{levenberg_marquardt, lm_statistics, residual_variance};
 use super::weighting::variance_weights;
 use super::{Estimator, Fit, Param, Weighting, covariance::covariance, samples::Samples};
@@ -12,8 +13,8 @@ use crate::identification::lsq::{ColumnPrior, Estimate, solve, solve_with_prior}
 use crate::identification::model::PowerModel;
 use crate::identification::tuning;
 
-/// Measured power (W) at or below which a sample of a clipped signal (DC bus, grid) may be
-/// clipped, so the linear estimator leaves it out.
+/// Measured power (W) above the floor at or below which a sample of a clipped signal (DC bus,
+/// grid) may be clipped, so the linear estimator leaves it out.
 const CLIPPED_BELOW_W: f64 = 2.0;
 
 /// Re-weightings of iterated weighted least squares (each from the previous fit's residuals).
@@ -123,13 +124,18 @@ fn fit_inner(
 /// The linear problem without copper loss and gear friction on the samples `rows` (weights `weights`):
 /// `y - dq . tau_known = (dq^T W_b) theta + P0` for the arm, `y - dq_i tau_known,i =
 /// (dq_i W_b,i) theta + P0_i` for motor `i`, rows times the square roots of the weights, the
-/// arm's clipped samples left out.
+/// arm's samples that may sit on the floor left out.
 fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
     let (n, nb, np) = (s.n, s.nb, s.params());
+    // A floor read from the logs is known here; one the standby gives is not yet.
+    let floor = match s.floor {
+        Some(Floor::Fixed(f)) => f.max(0.0),
+        _ => 0.0,
+    };
     let lin: Vec<(usize, f64)> = rows
         .iter()
         .zip(weights)
-        .filter(|(m, _)| !s.clipped || s.motor[**m].is_some() || s.y[**m] > CLIPPED_BELOW_W)
+        .filter(|(m, _)| !s.clipped || s.motor[**m].is_some() || s.y[**m] > floor + CLIPPED_BELOW_W)
         .map(|(m, w)| (*m, w.sqrt()))
         .collect();
     let to_z: Vec<usize> = (0..nb).chain(s.layout().losses().end..np).collect();

@@ -6,7 +6,8 @@
 //! `delta(t)` is the base-parameter change of the payload known to be at the flange then (so
 //! data recorded with tools and loads identify the bare robot). A DC-bus or grid signal
 //! cannot go negative (braking energy is burnt in the brake resistor), so the model of such a
-//! signal is `max(P, 0)`. When the logs have each motor's power, motor `i`'s is observed too,
+//! signal is `max(P, F)`, with `F` a load the meter sees after the clip (0 without one; see
+//! `floor`). When the logs have each motor's power, motor `i`'s is observed too,
 //! `P_i = dq_i tau_i + c_i tau_i^2 + P0_i` with a standby of its own (the paper's eq. 13 with
 //! per-motor power; [`FitOptions::motor_power`]): the same `theta` and `c`, each joint's part
 //! seen in its own motor. Estimators:
@@ -23,6 +24,7 @@
 //! The stages, one file each:
 //! - `samples`: the pooled observations ([`Samples`]) and `power`, the power model of one
 //!   observation and its gradient;
+//! - `floor`: the floor under a clipped meter's reading, from the logs or the drive file;
 //! - `layout`: where each parameter of the model sits in the parameter vector and its name
 //!   ([`Layout`], [`Param`]);
 //! - `estimate`: one estimator's fit ([`fit`]), its weighted rounds and its
@@ -44,6 +46,7 @@ use crate::identification::tuning;
 mod covariance;
 mod cv;
 mod estimate;
+mod floor;
 mod lag;
 mod layout;
 mod nonlinear;

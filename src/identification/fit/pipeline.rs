@@ -75,7 +75,9 @@ pub fn identify_logs(
         motor_power,
     )?;
     let samples = match &opts.prior {
-        Some(prior) => samples.with_prior(prior.clone())?,
+        Some(prior) => samples
+            .with_prior(prior.clone())?
+            .with_settled_floor(&template, opts.weighting)?,
         None => samples,
     };
     let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
@@ -88,12 +90,20 @@ pub fn identify_logs(
             alt.model = consistent_model(robot, &samples, alt, Estimator::Pmsm, opts)?.0;
         }
     }
+    let lowest_seen = samples.lowest_seen();
+    for model in std::iter::once(&mut selection.fit.model)
+        .chain(selection.without_gear.as_mut().map(|alt| &mut alt.model))
+    {
+        model.lowest_seen = lowest_seen;
+        // The floor the fit used, at the model's (refitted) standby.
+        let standby: f64 = model.constant.iter().sum();
+        model.bus_floor = samples.floor.map(|f| f.at(standby).0);
+    }
     selection.fit.model.without_gear = selection
         .without_gear
         .as_ref()
         .map(|alt| Box::new(alt.model.clone()));
     selection.fit.model.power_lag_s = lag;
-    selection.fit.model.lowest_seen = samples.lowest_seen();
     selection.fit.model.payload_seen = Some(
         logs.iter()
             .flat_map(|l| &l.payloads)

@@ -1,12 +1,12 @@
-//! The power model of one observation: the arm's power or one motor's, clipped where the
-//! signal cannot go negative, and its gradient in the parameters.
+//! The power model of one observation: the arm's power or one motor's, clipped at its floor
+//! where the signal cannot go lower, and its gradient in the parameters.
 
 use nalgebra::DVector;
 
 use super::samples::Samples;
 
 impl Samples {
-    /// Predicted power (W, clipped when the arm's signal is) of observation `m` with
+    /// Predicted power (W, clipped at its floor when the arm's signal is) of observation `m` with
     /// parameters `z`, and optionally its gradient with respect to `z`.
     ///
     /// Allocates nothing: it runs once per observation in every iteration of every fit.
@@ -28,12 +28,13 @@ impl Samples {
             }
             return p0 + j.power;
         }
+        let (floor, dfloor) = self.floor_at(p0);
         let Some(g) = grad else {
             let p = p0
                 + (0..n)
                     .map(|i| losses.joint(i, v[i], tau(i)).power)
                     .sum::<f64>();
-            return if self.clipped && p < 0.0 { 0.0 } else { p };
+            return if self.clipped && p < floor { floor } else { p };
         };
         g.fill(0.0);
         let mut p = p0;
@@ -43,11 +44,18 @@ impl Samples {
             j.add_gradient(g, wb, nb, n, i, 1.0);
         }
         g[self.constant(m)] = 1.0;
-        if self.clipped && p < 0.0 {
+        if self.clipped && p < floor {
             g.fill(0.0);
-            return 0.0;
+            g[self.constant(m)] = dfloor;
+            return floor;
         }
         p
+    }
+
+    /// The floor under the clipped arm's signal (W) with the arm's standby `p0_w`, and its
+    /// derivative in `p0_w` ([`super::samples::Floor::at`]; 0 and 0 without a floor).
+    fn floor_at(&self, p0_w: f64) -> (f64, f64) {
+        self.floor.map_or((0.0, 0.0), |f| f.at(p0_w))
     }
 
     /// [`Samples::power`] of an observation that averages its `span` states: the mean of
@@ -68,6 +76,7 @@ impl Samples {
             None => 0..n,
         };
         let clip = self.clipped && self.motor[m].is_none();
+        let (floor, dfloor) = self.floor_at(p0);
         let mut mean = 0.0;
         for st in self.state[m]..self.state[m] + span {
             let (wb, v, known) = self.state_rows(st);
@@ -89,10 +98,12 @@ impl Samples {
                 p
             };
             let p = add(grad.as_deref_mut(), w);
-            if clip && p < 0.0 {
-                if grad.is_some() {
-                    add(grad.as_deref_mut(), -w);
+            if clip && p < floor {
+                if let Some(g) = grad.as_deref_mut() {
+                    add(Some(&mut *g), -w);
+                    g[c0] += w * dfloor;
                 }
+                mean += w * floor;
                 continue;
             }
             mean += w * p;
@@ -227,6 +238,7 @@ mod tests {
             folds: 1,
             clipped: false,
             prior: None,
+            floor: None,
         }
     }
 
@@ -256,5 +268,54 @@ mod tests {
         let (tau, dq): (f64, f64) = (-3.2, -0.8);
         let expected = dq * tau + 0.05 * tau * tau + 0.01 * (dq * tau).abs() + 2.5;
         assert!((s.power(1, &z, None) - expected).abs() < 1e-12);
+    }
+
+    /// A clipped arm's observation the model puts below the floor reads the floor, which moves
+    /// with the standby while it lies between 0 and the lowest level seen, and is fixed once
+    /// read from the logs.
+    #[test]
+    fn a_clipped_arm_reads_its_floor() {
+        use super::super::floor::Floor;
+        let mut s = samples();
+        s.clipped = true;
+        // theta as in the gradient's test, negated: the arm regenerates at state 0.
+        let z = DVector::from_vec(vec![-3.0, 2.0, 0.02, 0.05, 0.03, 0.01, 1.5, 2.5, 7.0]);
+        s.floor = Some(Floor::Fixed(f64::NEG_INFINITY));
+        let joints = s.power(0, &z, None) - 7.0;
+        assert!(joints < -1.0, "the joints' power {joints} W");
+        // A floor above the model's power: the standby less the drive file's, below what was
+        // seen.
+        let floor = 7.0 + 0.5 * joints;
+        s.floor = Some(Floor::Standby {
+            standby_w: 7.0 - floor,
+            lowest_w: 100.0,
+        });
+        let mut g = vec![0.0; z.len()];
+        assert_eq!(s.power(0, &z, Some(&mut g)), floor);
+        let mut expected = vec![0.0; z.len()];
+        expected[8] = 1.0;
+        assert_eq!(g, expected);
+        s.floor = Some(Floor::Fixed(floor));
+        assert_eq!(s.power(0, &z, Some(&mut g)), floor);
+        assert!(g.iter().all(|v| *v == 0.0));
+        // The averaged observation is the mean of its states, each clipped at the floor.
+        s.floor = Some(Floor::Fixed(f64::NEG_INFINITY));
+        let states: Vec<f64> = (0..2)
+            .map(|k| {
+                let mut one = samples();
+                one.state = vec![k; 3];
+                one.span = vec![1; 3];
+                one.power(2, &z, None)
+            })
+            .collect();
+        // A floor between them: one state clipped, the other not.
+        let between = 0.5 * (states[0] + states[1]);
+        assert!(
+            (states[0] - states[1]).abs() > 0.01,
+            "states at {states:?} W"
+        );
+        s.floor = Some(Floor::Fixed(between));
+        let mean = states.iter().map(|p| 0.5 * p.max(between)).sum::<f64>();
+        assert!((s.power(2, &z, None) - mean).abs() < 1e-12);
     }
 }

@@ -6,6 +6,7 @@ use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector};
 
+use super::floor::Floor;
 use super::layout::Layout;
 use crate::dynamics::Workspace;
 use crate::dynamics::regressor::regressor;
@@ -88,6 +89,8 @@ pub struct Samples {
     /// Prior of the base parameters: pseudo-observations every fit adds to the samples'
     /// (`None`: the data alone, a rank-deficient log refused).
     pub(super) prior: Option<Prior>,
+    /// The floor under the clipped arm's signal (`None`: 0).
+    pub(super) floor: Option<Floor>,
 }
 
 impl Samples {
@@ -150,6 +153,7 @@ impl Samples {
             },
             clipped: first.signal.clipped(),
             prior: None,
+            floor: None,
         };
         let mut ws = Workspace::new(robot);
         for (l, p) in logs.iter().enumerate() {
@@ -272,12 +276,10 @@ impl Samples {
             folds: 1,
             clipped: false,
             prior: None,
+            floor: None,
         })
     }
 
-    /// The samples with `prior` on their base parameters: each fit is then the posterior
-    /// (the data decide the directions they determine, the prior the rest). Errors: a prior
-    /// of another base-parameter count.
     /// Fit only on the observations that `keep` (one per observation) marks as well.
     /// Errors: a mask of another length.
     pub(super) fn keep_only(&mut self, keep: &[bool]) -> Result<()> {
@@ -292,6 +294,10 @@ impl Samples {
         Ok(())
     }
 
+    /// The samples with `prior` on their base parameters: each fit is then the posterior
+    /// (the data decide the directions they determine, the prior the rest). A clipped arm's
+    /// signal then reads no less than its floor ([`Floor::Standby`]) where the prior holds the
+    /// drive file's standby. Errors: a prior of another base-parameter count.
     pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
         if prior.mean.len() != self.nb || prior.copper.len() != self.n || prior.gear.len() != self.n
         {
@@ -303,6 +309,13 @@ impl Samples {
                 self.n
             )));
         }
+        self.floor = prior
+            .standby_w
+            .zip(self.lowest_seen())
+            .map(|(standby_w, lowest_w)| Floor::Standby {
+                standby_w,
+                lowest_w,
+            });
         self.prior = Some(prior);
         Ok(self)
     }
