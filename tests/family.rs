@@ -467,24 +467,7 @@ fn dataset_items_redraw_robots_that_saturate() {
 fn a_meter_never_seen_low_widens_the_interval_of_a_motion_that_brakes() {
     let robot = common::irb1200();
     let drive = common::irb1200_drive(&robot);
-    let base = common::irb1200_rig(
-        &robot,
-        &drive,
-        Fidelity::Realistic,
-        NoiseSettings::default(),
-    );
-    let rig = Rig {
-        sensor: SensorSettings {
-            rate_hz: 20.0,
-            power_lag_s: 0.0,
-            ..base.sensor
-        },
-        twin: powertwin::twin::TwinConfig {
-            cabinet_power_w: 50.0,
-            ..base.twin.clone()
-        },
-        ..base.clone()
-    };
+    let rig = common::irb1200_cabinet_rig(&robot, &drive);
     let traj = excitation(&robot);
     let logs = two_logs(&rig, &traj);
     let route = [Route::Fourier {

@@ -416,23 +416,7 @@ fn the_drive_files_standby_finds_a_cabinet_after_the_bus_clip() {
     use powertwin::identification::data::Route;
     let robot = common::irb1200();
     let drive = common::irb1200_drive(&robot);
-    let base = common::irb1200_rig(
-        &robot,
-        &drive,
-        Fidelity::Realistic,
-        NoiseSettings::default(),
-    );
-    let rig = Rig {
-        sensor: SensorSettings {
-            rate_hz: 20.0,
-            ..base.sensor
-        },
-        twin: TwinConfig {
-            cabinet_power_w: 50.0,
-            ..base.twin.clone()
-        },
-        ..base.clone()
-    };
+    let rig = common::irb1200_cabinet_rig(&robot, &drive);
     let ident = fast_excitation(vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0], 1.0, 4.0);
     let logs: Vec<Log> = (0..2).map(|k| log_of(&rig, &ident, k)).collect();
     let held_out = fast_excitation(vec![0.3, 0.1, 0.0, 0.2, 0.6, 0.1], -1.0, 2.0);

@@ -231,3 +231,28 @@ pub fn efficiency_model() -> &'static (std::path::PathBuf, std::path::PathBuf) {
         (traj, model)
     })
 }
+
+/// The realistic IRB 1200 rig of [`irb1200_rig`] (default noise) logged at 20 Hz, with a
+/// 50 W cabinet load the DC-bus meter sees after its clip: the meter reads `max(P, 50 W)`.
+pub fn irb1200_cabinet_rig<'a>(
+    robot: &'a Robot,
+    drive: &'a powertwin::model::drive::Drive,
+) -> powertwin::validation::rig::Rig<'a> {
+    let base = irb1200_rig(
+        robot,
+        drive,
+        powertwin::twin::Fidelity::Realistic,
+        powertwin::twin::sensor::NoiseSettings::default(),
+    );
+    powertwin::validation::rig::Rig {
+        sensor: powertwin::twin::sensor::SensorSettings {
+            rate_hz: 20.0,
+            ..base.sensor
+        },
+        twin: powertwin::twin::TwinConfig {
+            cabinet_power_w: 50.0,
+            ..base.twin.clone()
+        },
+        ..base
+    }
+}

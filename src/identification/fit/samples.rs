@@ -296,8 +296,9 @@ impl Samples {
 
     /// The samples with `prior` on their base parameters: each fit is then the posterior
     /// (the data decide the directions they determine, the prior the rest). A clipped arm's
-    /// signal then reads no less than its floor ([`Floor::Standby`]) where the prior holds the
-    /// drive file's standby. Errors: a prior of another base-parameter count.
+    /// signal then reads no less than a floor, the fitted standby less the drive file's where
+    /// the prior holds it ([`PowerModel::bus_floor`]). Errors: a prior of another
+    /// base-parameter count.
     pub fn with_prior(mut self, prior: Prior) -> Result<Samples> {
         if prior.mean.len() != self.nb || prior.copper.len() != self.n || prior.gear.len() != self.n
         {
