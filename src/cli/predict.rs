@@ -72,8 +72,9 @@ pub struct PredictArgs {
     /// Write the power at the logged samples as CSV, to see where the model misses:
     /// `log` (1-based, in the order printed), `t_s` (the log's clock; for a logger that
     /// averages power, the middle of each sample period), `measured_{signal}_W` and
-    /// `predicted_{signal}_W` (the modelled signal: total, bus or grid; a bus or grid
-    /// prediction never goes negative). For --trajectory or --scenario: `t_s` (the plan
+    /// `predicted_{signal}_W` (the modelled signal as the meter reads it: total, bus or grid;
+    /// for a logger that averages power, the mean over each period; a bus or grid prediction
+    /// never goes below its floor). For --trajectory or --scenario: `t_s` (the plan
     /// file's clock, or from the scenario's start) and `P_predicted_W` at the plan's samples.
     #[arg(long, value_name = "FILE.csv")]
     power_out: Option<PathBuf>,

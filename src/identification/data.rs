@@ -160,6 +160,18 @@ pub fn power_times(t: &[f64], power_averaged: bool) -> Vec<f64> {
         .collect()
 }
 
+/// Times (s, log time) at which a model's power is taken for each logged power sample of the
+/// sample times `t` (s), sample-major, and how many per sample: the sample times, one each, or,
+/// when the logger averages power over each sample period, the [`PERIOD_NODES`] nodes of each
+/// period, whose mean is the sample's (as the fit models it).
+pub fn power_sample_nodes(t: &[f64], power_averaged: bool) -> (Vec<f64>, usize) {
+    if power_averaged {
+        (period_node_times(t), PERIOD_NODES)
+    } else {
+        (t.to_vec(), 1)
+    }
+}
+
 /// The log times of the [`PERIOD_NODES`] nodes of each sample period `[t_k-1, t_k]` of the
 /// sample times `t` (s), sample-major; the first sample's period is taken as long as the
 /// second's.
@@ -291,4 +303,29 @@ pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepa
         excited,
         power_averaged: log.power_averaged,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_averaging_loggers_sample_is_taken_over_its_period() {
+        let t = [1.0, 1.1, 1.3];
+        assert_eq!(power_sample_nodes(&t, false), (t.to_vec(), 1));
+        let (nodes, per) = power_sample_nodes(&t, true);
+        assert_eq!(per, PERIOD_NODES);
+        assert_eq!(nodes.len(), t.len() * per);
+        // Each sample's nodes lie inside its period, spread evenly about its middle; the
+        // first sample's period precedes the log, as long as the second's.
+        for (k, (a, b)) in [(0.9, 1.0), (1.0, 1.1), (1.1, 1.3)].into_iter().enumerate() {
+            let own = &nodes[k * per..(k + 1) * per];
+            assert!(
+                own.iter().all(|x| *x > a && *x < b),
+                "{own:?} in [{a}, {b}]"
+            );
+            let mean = own.iter().sum::<f64>() / per as f64;
+            assert!((mean - 0.5 * (a + b)).abs() < 1e-12);
+        }
+    }
 }

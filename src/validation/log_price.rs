@@ -4,7 +4,7 @@
 //! it scores a model on a user's own logs.
 
 use crate::error::Result;
-use crate::identification::data::{Prepared, power_times};
+use crate::identification::data::{Prepared, power_sample_nodes, power_times};
 use crate::identification::energy::window_energies;
 use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel, Prediction};
 use crate::identification::plan::price;
@@ -24,8 +24,9 @@ pub struct LogPrice {
     pub t_s: Vec<f64>,
     /// Measured power at those times, W.
     pub measured_w: Vec<f64>,
-    /// Predicted power of the measured signal at those times, W (never negative for a bus
-    /// or grid signal).
+    /// Predicted power of the measured signal at those times, W, as the meter reads it: for
+    /// a logger that averages power, the mean over each sample period; never below the floor
+    /// of a bus or grid signal ([`crate::identification::model::PowerModel::reading`]).
     pub predicted_w: Vec<f64>,
 }
 
@@ -60,8 +61,10 @@ pub fn price_log(
         .iter()
         .sum();
     let t_s = power_times(&p.states.t, p.power_averaged);
-    // The logged power belongs to the motion `power_lag_s` earlier (0 for most models).
-    let t: Vec<f64> = t_s
+    // The logged power belongs to the motion `power_lag_s` earlier (0 for most models), at
+    // each sample's time or averaged over its period.
+    let (nodes, per_sample) = power_sample_nodes(&p.states.t, p.power_averaged);
+    let t: Vec<f64> = nodes
         .iter()
         .map(|t| t - p.motion_t0_s - model.power_lag_s)
         .collect();
@@ -73,12 +76,17 @@ pub fn price_log(
         DATASHEET_EFFICIENCY,
         &t,
     )?;
+    let predicted_w = priced
+        .power_w
+        .chunks(per_sample)
+        .map(|c| c.iter().sum::<f64>() / per_sample as f64)
+        .collect();
     Ok(LogPrice {
         source: source.to_string(),
         prediction: priced.prediction,
         measured_j,
         t_s,
         measured_w: p.p_total.clone(),
-        predicted_w: priced.power_w,
+        predicted_w,
     })
 }

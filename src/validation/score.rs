@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::Dataset;
 use crate::dynamics::DriveTerms;
 use crate::error::Result;
-use crate::identification::data::{power_times, prepare};
+use crate::identification::data::{power_sample_nodes, prepare};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::{PowerModel, Prediction};
 use crate::model::Robot;
@@ -229,9 +229,9 @@ pub fn heldout_motion(
     let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
     // Power at the logged samples: along the log route (its clock starts at the route's
     // origin) or along the plan (the run's clock).
-    // The logged power belongs to the motion at its power times (the middle of each period
+    // The logged power belongs to the motion at its sample times (the mean over each period
     // for an averaging meter), the model's lag earlier.
-    let power_t = power_times(&log.t_s, log.power_averaged);
+    let (power_t, per_sample) = power_sample_nodes(&log.t_s, log.power_averaged);
     let rmse = |mm: &PowerModel, plan: bool| -> Result<f64> {
         let lagged =
             |t0: f64| -> Vec<f64> { power_t.iter().map(|t| t - t0 - mm.power_lag_s).collect() };
@@ -242,9 +242,12 @@ pub fn heldout_motion(
             mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &log_t)?
         };
         let se: f64 = p
-            .iter()
+            .chunks(per_sample)
             .zip(&log.power_w)
-            .map(|(p, y)| (mm.reading(*p) - y).powi(2))
+            .map(|(nodes, y)| {
+                let read = nodes.iter().map(|p| mm.reading(*p)).sum::<f64>();
+                (read / per_sample as f64 - y).powi(2)
+            })
             .sum();
         Ok((se / log.len() as f64).sqrt())
     };
