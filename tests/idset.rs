@@ -194,22 +194,27 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // (1.06 % with the viscous change alone, 1.20 % at the new default of 1 substep): the
     // positions used to run h/2 ahead, which partly lined them up with each step's power,
     // the mean over the step, recorded at its start (docs/experiments.md#leapfrog-reading).
+    // The slow-friction term (0.3 of the Coulomb friction work at joint speeds below about
+    // twice the least fitted one, which the logs do not show) widens it to 1.39 %: this truth
+    // has no slow-speed friction effect, but its logs cannot say so
+    // (docs/experiments.md#slow-motion-intervals).
     assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
     assert!(exact.4 < 0.005 && exact.3 < 0.3, "{exact:?}");
     assert!(realistic.0 >= 80.0 && realistic.1 >= 80.0, "{realistic:?}");
     assert!(realistic.3 > 0.1 || realistic.4 > 0.001, "{realistic:?}");
     // ... with intervals that are not vacuous.
     assert!(
-        exact.2 < 1.3 && realistic.2 < 1.7,
+        exact.2 < 1.5 && realistic.2 < 1.7,
         "{exact:?} {realistic:?}"
     );
     // With each motor's power the exact truth's errors shrink (worst from the plan 0.67 %
     // for 1.10 %) and so do its intervals (mean half-width 0.47 %). With the structure error
     // taken at its most likely value they shrank more than the errors and covered 75 % of
     // these 12 motions (four excitations' pieces, most likely no structure error); averaged
-    // over what the pieces allow (structure 0.07 W), 100 / 100 %.
+    // over what the pieces allow (structure 0.07 W), 100 / 100 %. The slow-friction term
+    // widens them to 0.70 %.
     assert!(
-        exact_motors.0 >= 90.0 && exact_motors.1 >= 90.0 && exact_motors.2 < 0.6,
+        exact_motors.0 >= 90.0 && exact_motors.1 >= 90.0 && exact_motors.2 < 0.8,
         "{exact_motors:?}"
     );
     assert!(exact_motors.5 < exact.5, "{exact_motors:?} {exact:?}");

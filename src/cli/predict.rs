@@ -174,6 +174,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
                 "below_seen_J": pred.below_seen_j,
                 "unseen_load_J": pred.unseen_load_j,
+                "slow_friction_J": pred.slow_friction_j,
                 "without_gear_J": pred.without_gear_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
@@ -271,6 +272,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "power_signal": model.signal.name(),
             "below_seen_J": pred.below_seen_j,
             "unseen_load_J": pred.unseen_load_j,
+            "slow_friction_J": pred.slow_friction_j,
             "without_gear_J": pred.without_gear_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
@@ -288,8 +290,9 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
 }
 
 /// The notes a prediction carries when its power goes below the lowest level the
-/// identification logs show the meter at, its payload is heavier than they carried, or its
-/// model has gear friction (empty otherwise).
+/// identification logs show the meter at, its payload is heavier than they carried, its
+/// friction work at slow joint speeds is most of its interval, or its model has gear friction
+/// (empty otherwise).
 fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     let mut note = String::new();
     if pred.below_seen_j > 0.0 {
@@ -302,6 +305,13 @@ fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
         note += &format!(
             "; a payload heavier than identification carried moves {:.2} J more through the joints (its losses undetermined, in the interval)",
             pred.unseen_load_j
+        );
+    }
+    let slow_sigma = powertwin::identification::tuning::SLOW_FRICTION_UNSURE * pred.slow_friction_j;
+    if slow_sigma > 0.5 * pred.interval_j / 1.96 {
+        note += &format!(
+            "; {:.2} J of friction work at joint speeds slower than identification fitted (its law there undetermined, in the interval)",
+            pred.slow_friction_j
         );
     }
     if let Some(e) = pred.without_gear_j {

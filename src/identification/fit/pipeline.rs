@@ -98,6 +98,7 @@ pub fn identify_logs(
         // The floor the fit used, at the model's (refitted) standby.
         let standby: f64 = model.constant.iter().sum();
         model.bus_floor = samples.floor.map(|f| f.at(standby).0);
+        model.min_speed = (opts.min_speed > 0.0).then_some(opts.min_speed);
     }
     selection.fit.model.without_gear = selection
         .without_gear

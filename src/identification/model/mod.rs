@@ -150,6 +150,18 @@ pub struct PowerModel {
         skip_serializing_if = "Option::is_none"
     )]
     pub payload_seen: Option<f64>,
+    /// The least joint speed identification fitted, rad/s: every sample fitted had each
+    /// excited joint at least this fast. A prediction adds
+    /// [`crate::identification::tuning::SLOW_FRICTION_UNSURE`] of the Coulomb friction work
+    /// at speeds below about twice it to its standard deviation (`slow_friction_J`): how the
+    /// friction changes there is not in the logs (`None`: no such term; a model not fitted
+    /// by speed, or an older file).
+    #[serde(
+        default,
+        rename = "min_speed_rad_s",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub min_speed: Option<f64>,
     /// Lag of the logged power behind the logged joints found in the identification logs, s
     /// (positive: the power is late; a meter on its own clock or with a filter). Predicting
     /// the power at a log's samples shifts by it; energies of motions do not depend on it.
@@ -193,6 +205,7 @@ impl PowerModel {
             lowest_seen: None,
             bus_floor: None,
             payload_seen: None,
+            min_speed: None,
             power_lag_s: 0.0,
             without_gear: None,
         })

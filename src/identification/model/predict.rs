@@ -22,9 +22,11 @@ impl PowerModel {
     /// (at least `structure_active_W` times the duration), plus half the energy a clipped
     /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
     /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
-    /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus,
-    /// for a model with gear friction, its disagreement with the model without it
-    /// (`without_gear_J`). `dt`: integration step, s.
+    /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus
+    /// [`tuning::SLOW_FRICTION_UNSURE`] of the Coulomb friction work at slow joint speeds
+    /// (`slow_friction_J`), plus, for a model with gear
+    /// friction, its disagreement with the model without it (`without_gear_J`). `dt`:
+    /// integration step, s.
     pub fn predict(
         &self,
         robot: &Robot,
@@ -48,7 +50,7 @@ impl PowerModel {
             None => None,
         };
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
-        let mut unseen_load = 0.0;
+        let (mut unseen_load, mut slow_friction) = (0.0, 0.0);
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let floor = if clipped {
             self.bus_floor.unwrap_or(0.0)
@@ -72,6 +74,7 @@ impl PowerModel {
                 unseen += weight * (low - total.max(0.0)).max(0.0);
             }
             unseen_load += weight * self.unseen_load_power(e);
+            slow_friction += weight * self.slow_friction_power(e, &coulomb);
             if !(clipped && total < floor) {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
@@ -92,6 +95,7 @@ impl PowerModel {
             + (self.structure_rel * active).powi(2)
             + (0.5 * unseen).powi(2)
             + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
+            + (tuning::SLOW_FRICTION_UNSURE * slow_friction).powi(2)
             + disagreement.powi(2))
         .sqrt();
         Ok(Prediction {
@@ -102,6 +106,7 @@ impl PowerModel {
             duration_s: duration,
             below_seen_j: unseen,
             unseen_load_j: unseen_load,
+            slow_friction_j: slow_friction,
             without_gear_j,
         })
     }
@@ -159,6 +164,31 @@ impl PowerModel {
             _ => 0.0,
         }
     }
+
+    /// Coulomb friction power (W) of state `e` at slow joint speeds, `sum_i |fc_i dq_i|
+    /// exp(-(dq_i / (SLOW_FRICTION_SPAN min_speed))^2)` with `fc_i` the model's Coulomb
+    /// parameter (`coulomb` as [`PowerModel::coulomb_params`] gives). Identification fitted
+    /// only samples at which every excited joint moved at least `min_speed`, so how the
+    /// friction changes at slower speeds is not in the model; 0 for a model without Coulomb
+    /// friction or without a least fitted speed.
+    fn slow_friction_power(&self, e: &StateEval, coulomb: &[Option<(usize, usize)>]) -> f64 {
+        let Some(span) = self
+            .min_speed
+            .filter(|v| *v > 0.0)
+            .map(|v| tuning::SLOW_FRICTION_SPAN * v)
+        else {
+            return 0.0;
+        };
+        coulomb
+            .iter()
+            .zip(e.dq)
+            .filter_map(|(c, &v)| {
+                let (_, kc) = (*c)?;
+                let x = v / span;
+                Some((e.model.theta[kc] * v).abs() * (-x * x).exp())
+            })
+            .sum()
+    }
 }
 
 /// An energy prediction with its uncertainty.
@@ -192,6 +222,13 @@ pub struct Prediction {
     /// interval's standard deviation.
     #[serde(rename = "unseen_load_J")]
     pub unseen_load_j: f64,
+    /// Coulomb friction work at slow joint speeds (`integral sum_i |fc_i dq_i| exp(-(dq_i /
+    /// (2 min_speed))^2) dt`, with the model's least fitted speed `min_speed_rad_s`), J: the
+    /// identification logs show the friction only at speeds above that;
+    /// `SLOW_FRICTION_UNSURE` of it is in the interval's standard deviation (0 for a model
+    /// without a least fitted speed).
+    #[serde(rename = "slow_friction_J")]
+    pub slow_friction_j: f64,
     /// For a model with gear friction, the energy its model without gear friction predicts
     /// ([`PowerModel::without_gear`]), J: the difference is in the interval's standard
     /// deviation. `None` without gear friction.
@@ -209,4 +246,66 @@ pub struct EnergyPrediction {
     /// floor of a clipped signal, 0 for an unclipped one).
     #[serde(rename = "grid_J")]
     pub grid_j: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::dynamics::ParamLayout;
+    use crate::identification::model::PowerModel;
+    use crate::identification::tuning;
+    use crate::model::builtin;
+    use crate::model::urdf::{LoadOptions, load_str};
+    use crate::trajectory::sampled::Sampled;
+
+    /// A model of only Coulomb friction (10 N m per joint), fitted no slower than `min_speed`
+    /// (rad/s), predicting joint 1 turning at `speed` (rad/s) for 10 s, the others at rest:
+    /// the energy, its interval and its slow-friction work, J.
+    fn coulomb_only(speed: f64, min_speed: Option<f64>) -> (f64, f64, f64) {
+        let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).unwrap();
+        let mut model =
+            PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
+        model.min_speed = min_speed;
+        let coulomb = model.coulomb_params();
+        for (_, kc) in coulomb.iter().flatten() {
+            model.theta[*kc] = 10.0;
+        }
+        let t: Vec<f64> = (0..=100).map(|k| 0.1 * k as f64).collect();
+        // Per joint, per sample.
+        let rest = [0.0, 0.2, 0.2, 0.0, 0.8, 0.0];
+        let q = (0..6)
+            .map(|j| {
+                t.iter()
+                    .map(|&t| if j == 0 { speed * t } else { rest[j] })
+                    .collect()
+            })
+            .collect();
+        let dq = (0..6)
+            .map(|j| vec![if j == 0 { speed } else { 0.0 }; t.len()])
+            .collect();
+        let traj = Sampled::new(t, q, Some(dq), None).unwrap();
+        let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
+        (p.energy_j, p.interval_j, p.slow_friction_j)
+    }
+
+    #[test]
+    fn friction_at_slow_joint_speeds_widens_the_interval() {
+        // At 0.05 rad/s the friction work is 10 N m x 0.05 rad/s x 10 s = 5 J, all of it at a
+        // speed identification fitted no sample at (weight exp(-(0.05 / (2 x 0.05))^2)).
+        let (energy, interval, slow) = coulomb_only(0.05, Some(tuning::MIN_SPEED));
+        assert!((energy - 5.0).abs() < 1e-6, "{energy} J");
+        let expected = 5.0 * (-0.25f64).exp();
+        assert!((slow - expected).abs() < 1e-6, "{slow} J vs {expected} J");
+        // Nothing else is uncertain in this model: the interval is the slow-friction term.
+        let sigma = tuning::SLOW_FRICTION_UNSURE * slow;
+        assert!((interval - 1.96 * sigma).abs() < 1e-9, "{interval} J");
+        // At 0.5 rad/s the same friction is fitted: no slow-friction term to speak of.
+        let (energy, interval, slow) = coulomb_only(0.5, Some(tuning::MIN_SPEED));
+        assert!((energy - 50.0).abs() < 1e-6, "{energy} J");
+        assert!(slow < 1e-9 && interval < 1e-9, "{slow} J, {interval} J");
+        // A model without a least fitted speed (not fitted by speed, or an older file) has no
+        // such term.
+        let (energy, interval, slow) = coulomb_only(0.05, None);
+        assert!((energy - 5.0).abs() < 1e-6, "{energy} J");
+        assert_eq!((interval, slow), (0.0, 0.0));
+    }
 }
