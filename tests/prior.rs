@@ -367,6 +367,12 @@ fn identify_reports_what_the_data_determined() {
         err.contains("heaviest payload the logs carried: 0.00 kg"),
         "{err}"
     );
+    // Nor does it know the friction below its least fitted speed.
+    assert_eq!(report["min_speed_rad_s"].as_f64(), Some(0.05));
+    assert!(
+        err.contains("least joint speed fitted: 0.050 rad/s"),
+        "{err}"
+    );
     let written: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&model).unwrap()).unwrap();
     assert_eq!(written["determination"]["directions"], d["directions"]);

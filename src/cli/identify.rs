@@ -702,6 +702,16 @@ fn write_and_report(
             100.0 * powertwin::identification::tuning::UNSEEN_LOAD_LOSS
         );
     }
+    if let Some(v) = model.min_speed {
+        use powertwin::identification::tuning::{SLOW_FRICTION_SPAN, SLOW_FRICTION_UNSURE};
+        eprintln!(
+            "least joint speed fitted: {v:.3} rad/s; how the friction changes below about {:.3} \
+             rad/s is undetermined: predictions' intervals hold {} % of the Coulomb friction \
+             work there",
+            SLOW_FRICTION_SPAN * v,
+            100.0 * SLOW_FRICTION_UNSURE
+        );
+    }
     if args.json {
         let report = json!({
             "model_path": args.out,
@@ -714,6 +724,7 @@ fn write_and_report(
             "lowest_seen_W": model.lowest_seen,
             "bus_floor_W": model.bus_floor,
             "payload_seen_kg": model.payload_seen,
+            "min_speed_rad_s": model.min_speed,
             "holdout": held_out,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
