@@ -154,8 +154,9 @@ pub(super) fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 /// Encoder noise of each joint's positions `q[i][m]`, rad, given the [`rest_intervals`]
 /// `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
 /// each joint's samples about each rest's mean, pooled over the rests, and where the joint's
-/// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that,
-/// both pooled by their degrees of freedom (`white_sigma`). Otherwise from the differences
+/// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that
+/// (or than the rests' sampling error allows, for rests of few samples:
+/// `rest_sampling_ratio`), both pooled by their degrees of freedom (`white_sigma`). Otherwise from the differences
 /// alone, joint by joint: where a joint's samples look like white noise, that estimate;
 /// where they do not, zero (the sampling resolves the motion above the noise, and the spline
 /// interpolates). Each joint keeps its own: a 10 Hz log whose wrist sticks and slips looks
@@ -186,14 +187,36 @@ pub fn noise_levels(q: &[Vec<f64>], rest: &[bool]) -> Vec<f64> {
                 })
                 .sum();
             let at_rest = (ss / rest_dof).sqrt();
+            let agreed = AGREED_NOISE_RATIO.max(rest_sampling_ratio(rest_dof));
             match white_sigma(x) {
-                Some((sigma, dof)) if sigma <= AGREED_NOISE_RATIO * at_rest => {
+                Some((sigma, dof)) if sigma <= agreed * at_rest => {
                     ((rest_dof * at_rest * at_rest + dof * sigma * sigma) / (rest_dof + dof)).sqrt()
                 }
                 _ => at_rest,
             }
         })
         .collect()
+}
+
+/// Largest ratio of a noise level to its estimate from the scatter at rest, with `dof`
+/// degrees of freedom, that the rests' sampling error allows at 1 %: `sqrt(dof / q)`, `q` the
+/// chi-square distribution's 1 % quantile with `dof` degrees of freedom (tabulated up to 9,
+/// the Wilson-Hilferty approximation above). A rest of three samples (2 degrees of freedom)
+/// scatters by less than half the noise one time in five, and by a tenth one time in a
+/// hundred; from 10 degrees of freedom the bound is below [`AGREED_NOISE_RATIO`].
+fn rest_sampling_ratio(dof: f64) -> f64 {
+    const QUANTILE_1PCT: [f64; 9] = [
+        1.571e-4, 0.0201, 0.1148, 0.2971, 0.5543, 0.8721, 1.2390, 1.6465, 2.0879,
+    ];
+    let k = dof.max(1.0);
+    let q = if k < 9.5 {
+        QUANTILE_1PCT[k.round() as usize - 1]
+    } else {
+        // Wilson-Hilferty: (q / k)^(1/3) is about normal, mean 1 - 2 / (9 k), variance 2 / (9 k).
+        let v = 2.0 / (9.0 * k);
+        k * (1.0 - v - 2.3263 * v.sqrt()).powi(3)
+    };
+    (k / q).sqrt()
 }
 
 /// A joint's encoder noise (rad) from the differences of its samples `x`, with the degrees of

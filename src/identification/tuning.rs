@@ -163,7 +163,9 @@ pub const WHITE_RATIO: f64 = 1.5;
 /// for which the route's noise levels pool the two. Why 2: the same encoder noise within the
 /// rests' sampling error (a few rest samples leave the scatter uncertain by tens of percent),
 /// while a joint that sticks and slips while the others move looks white with far more
-/// (docs/experiments.md#encoder-noise-levels).
+/// (docs/experiments.md#encoder-noise-levels). Rests of fewer than 10 degrees of freedom allow
+/// more, as their scatter's 1 % sampling error does (up to 10 for a rest of three samples;
+/// docs/experiments.md#a-short-rests-noise-level).
 pub const AGREED_NOISE_RATIO: f64 = 2.0;
 
 /// Harmonics of the Fourier excitation trajectories by default. Why 5: the paper's value
