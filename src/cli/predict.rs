@@ -291,8 +291,8 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
 
 /// The notes a prediction carries when its power goes below the lowest level the
 /// identification logs show the meter at, its payload is heavier than they carried, its
-/// friction work at slow joint speeds is most of its interval, or its model has gear friction
-/// (empty otherwise).
+/// slow-friction term's standard deviation is over half the interval's, or its model has gear
+/// friction (empty otherwise).
 fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     let mut note = String::new();
     if pred.below_seen_j > 0.0 {
