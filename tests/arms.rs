@@ -4,7 +4,7 @@
 //! chain is checked with numbers; one CLI run per robot checks that every command takes
 //! `--robot`, `--drive` (and `--lock`).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

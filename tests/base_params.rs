@@ -1,7 +1,7 @@
 //! Base parameters: counts for the IRB 1200, exact reproduction of the torques with the
 //! base set at fresh states, and the known regroupings.
 
-mod common;
+use crate::common;
 
 use nalgebra::{DMatrix, DVector};
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions, random_stack};

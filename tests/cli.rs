@@ -1,6 +1,6 @@
 //! The `powertwin` binary as a user runs it: outputs, JSON fields, and clear errors.
 
-mod common;
+use crate::common;
 
 use common::{run as powertwin, tmp};
 

@@ -50,7 +50,7 @@ fn cli_guide_option_lists_are_current() {
     assert!(
         fresh == doc,
         "docs/guide/cli.md is out of date with the binary's -h output; regenerate it with \
-         POWERTWIN_BLESS=1 cargo test --release --test cli_doc"
+         POWERTWIN_BLESS=1 cargo test --release --test integration cli_doc::"
     );
 }
 

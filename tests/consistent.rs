@@ -1,7 +1,7 @@
 //! Physically consistent standard parameters from base-parameter estimates, and the identified
 //! robot as a twin: twin A -> logs -> identify -> consistent export -> twin B.
 
-mod common;
+use crate::common;
 
 use nalgebra::{DMatrix, DVector};
 use powertwin::Robot;

@@ -1,7 +1,7 @@
 //! Datasets: exact round trips in both formats, deterministic bytes, atomic writes and
 //! replacement, and clear errors for corrupted inputs. Everything is synthetic (no twin).
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

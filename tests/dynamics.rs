@@ -2,7 +2,7 @@
 //! independent Lagrangian route (CRBA mass matrix, Christoffel symbols and the gradient of
 //! the potential energy by finite differences).
 
-mod common;
+use crate::common;
 
 use nalgebra::{DMatrix, DVector};
 use powertwin::dynamics::crba::{forward_dynamics, kinetic_energy, mass_matrix, potential_energy};

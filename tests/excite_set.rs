@@ -1,7 +1,7 @@
 //! `powertwin excite --set N`: an identification set for any arm in its cell, its files
 //! (trajectory CSVs, URScript programs, the runs manifest) and the cells it refuses.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

@@ -1,6 +1,6 @@
 //! Writing robots out as URDF and drive TOML: what is written loads back to the same model.
 
-mod common;
+use crate::common;
 
 use nalgebra::{Matrix3, Vector3};
 use powertwin::Robot;

@@ -2,7 +2,7 @@
 //! (direction-dependent gear friction, cabinet load, power lag, stamp jitter), the lag the
 //! identification finds, and the CLI's errors.
 
-mod common;
+use crate::common;
 
 use powertwin::identification::data::Route;
 use powertwin::identification::fit::{FitOptions, identify_logs};

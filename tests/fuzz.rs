@@ -11,11 +11,11 @@
 //!
 //! CI runs a short run (the default case counts below, a few thousand cases in all). A long
 //! run sets the count per target, e.g.
-//! `POWERTWIN_FUZZ_CASES=1000000 cargo test --release --test fuzz`; see docs/design/fuzzing.md.
+//! `POWERTWIN_FUZZ_CASES=1000000 cargo test --release --test integration fuzz::`; see docs/design/fuzzing.md.
 //! `POWERTWIN_FUZZ_SEED` changes the seed (default 0). A panic names the target, the case and
 //! the file holding the input that caused it.
 
-mod common;
+use crate::common;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Out of sample: identification from logs only, judged on held-out motions; truth cannot
 //! reach identification; prediction intervals; `predict --payload`.
 
-mod common;
+use crate::common;
 
 use powertwin::dataset::{Dataset, Format};
 use powertwin::identification::data::Route;

@@ -1,6 +1,6 @@
 //! Identification from power: signal processing and estimators against the twin's truth.
 
-mod common;
+use crate::common;
 
 use powertwin::identification::fourier_fit::fit_fourier;
 use powertwin::trajectory::Trajectory;

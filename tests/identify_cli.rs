@@ -1,6 +1,6 @@
 //! `excite` -> `simulate` -> `identify` -> `predict` as a user runs them.
 
-mod common;
+use crate::common;
 
 use common::{run as powertwin, tmp};
 

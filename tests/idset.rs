@@ -2,7 +2,7 @@
 //! noise-free set determines, intervals calibrated on cross-validation, weighted and
 //! physically consistent fits.
 
-mod common;
+use crate::common;
 
 use powertwin::dynamics::{DriveTerms, ParamLayout};
 use powertwin::identification::consistency::consistency;

@@ -2,7 +2,7 @@
 //! against finite differences, closed-form IK round trips (IRB 1200 and other OPW arms), IK error cases and
 //! damped least squares on OPW and non-OPW chains.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 

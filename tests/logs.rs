@@ -1,7 +1,7 @@
 //! Measured logs: column maps, messy time bases, units, the power lag, segments, the UR RTDE
 //! preset on a log written by the twin, and identification from such a log.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::{PI, TAU};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! twin measures. The model is identified from the twin's logs (realistic truth), never from
 //! its truth.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 

@@ -1,7 +1,7 @@
 //! `predict --trajectory` and `predict --scenario`: pricing a plan nobody has run, against
 //! the library's `PowerModel::predict` and `sweep`'s prediction of the same cell.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

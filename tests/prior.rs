@@ -3,7 +3,7 @@
 //! prior, scored out of sample on moves it was not fitted on; a well-excited log gives the
 //! model of the data alone to within its standard deviations.
 
-mod common;
+use crate::common;
 
 use powertwin::dataset::meta::Urdf;
 use powertwin::identification::fit::{FitOptions, identify_logs};

@@ -3,7 +3,7 @@
 //! and clear errors for scenarios that cannot run. No assertion here scores a model on the
 //! data it was fitted on (that proves nothing).
 
-mod common;
+use crate::common;
 
 use serde_json::Value;
 

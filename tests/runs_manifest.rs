@@ -2,7 +2,7 @@
 //! a manifest with paths relative to it; `identify --holdout`, the out-of-sample check on the
 //! user's own logs.
 
-mod common;
+use crate::common;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! `powertwin simulate` and `powertwin dataset` as a user runs them: datasets on disk,
 //! byte-identical reruns, shard union, and clear errors for bad input.
 
-mod common;
+use crate::common;
 
 use common::{run as powertwin, tmp};
 

@@ -3,7 +3,7 @@
 //! differences of an independent IK of the path, joint limits over the sweep, slowed segments,
 //! load events, and error cases (unreachable points, bad files, bad inputs).
 
-mod common;
+use crate::common;
 
 use nalgebra::{Isometry3, Translation3, Vector3};
 use powertwin::kinematics::fk::tcp_pose;

@@ -1,7 +1,7 @@
 //! Trajectories: interpolation of samples, Fourier series, point-to-point motions, random
 //! generators and the limit check, against their definitions and finite differences.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

@@ -1,7 +1,7 @@
 //! The Rapier twin: fidelity of the applied torque against exact inverse dynamics on the
 //! motion Rapier produced, energy balance, payload events, determinism and bad input.
 
-mod common;
+use crate::common;
 
 use powertwin::dynamics::crba::{kinetic_energy, potential_energy};
 use powertwin::dynamics::rnea::rnea;

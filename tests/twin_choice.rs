@@ -2,7 +2,7 @@
 //! model's predictions (those of `predict --scenario`, with their intervals) and nothing claims
 //! to be simulated; the identified model's own twin is another robot than the input's.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

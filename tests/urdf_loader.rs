@@ -1,7 +1,7 @@
 //! Loading robots from URDF: public robots, fixed-joint merging, and every bad-input case
 //! with an error that names the link or joint.
 
-mod common;
+use crate::common;
 
 use nalgebra::{DMatrix, DVector};
 use powertwin::Error;

@@ -2,7 +2,7 @@
 //! truth: adding a known payload through the base relations, re-identifying the last link,
 //! the parameter table and the physical-consistency check.
 
-mod common;
+use crate::common;
 
 use powertwin::dynamics::base_params::{BaseParams, SamplingOptions};
 use powertwin::dynamics::{DriveTerms, ParamLayout};

@@ -2,7 +2,7 @@
 //! with Rerun's own decoder and check entities, timelines and decimated row counts.
 #![cfg(feature = "viz")]
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 

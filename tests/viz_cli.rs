@@ -2,7 +2,7 @@
 //! writes, read back with Rerun's own decoder.
 #![cfg(feature = "viz")]
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 
