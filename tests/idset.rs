@@ -484,3 +484,34 @@ fn a_standby_rest_pins_the_identified_standby_power() {
     assert!((without - 18.5).abs() > 0.3, "{without}");
     assert!((with - 18.5).abs() < 0.15, "{with}");
 }
+
+#[test]
+fn a_design_runs_only_with_the_set_it_was_designed_for() {
+    // Robots that differ only in what the files do not show (a family's) share one design;
+    // a design of another set is an error, not a silently shorter identification set.
+    let robot = common::irb1200();
+    let drive = drive(&robot);
+    let rig = rig(&robot, &drive, Fidelity::Exact, NoiseSettings::NONE);
+    let mut opts = IdSetOptions::irb1200(true);
+    opts.centres.truncate(2);
+    opts.loads_kg.truncate(2);
+    opts.base_freq_hz.truncate(2);
+    opts.rounds = 1;
+    opts.max_evals = 20;
+    let design = idset::design(&robot, &opts).unwrap();
+    assert_eq!(design.trajectories.len(), 2);
+    let mut other = opts.clone();
+    other.centres.push(vec![0.0, 0.2, 0.2, 0.0, 0.8, 0.0]);
+    other.loads_kg.push(7.0);
+    other.base_freq_hz.push(0.1);
+    match idset::run_designed(&rig, &other, &design, &Silent) {
+        Err(powertwin::Error::InvalidInput(m)) => {
+            assert!(
+                m.contains("a design of 2 excitations for a set of 3"),
+                "{m}"
+            )
+        }
+        Err(e) => panic!("expected the mismatch named, got {e}"),
+        Ok(_) => panic!("a design of 2 excitations ran a set of 3"),
+    }
+}

@@ -88,7 +88,8 @@ pub struct SetOptions {
     pub members: Vec<Member>,
     /// Harmonics per joint (>= 2).
     pub harmonics: usize,
-    /// Rate of the samples the fit will see, Hz (the logging rate).
+    /// Rate of the samples the design conditions, Hz ([`DESIGN_RATE_HZ`] for a set planned
+    /// for logs of any rate).
     pub sample_rate_hz: f64,
     /// Samples at which a joint moves slower than this (rad/s) do not count (the fit leaves
     /// them out).
@@ -134,6 +135,12 @@ pub struct SetDesign {
 
 /// The optimiser sees limits shrunk by this factor (see the single design).
 const OPTIMISATION_TIGHTENING: f64 = 0.98;
+/// Rate of the samples a set's design conditions, Hz, whatever rate the logs will have: the
+/// paper's logging rate. The design conditions the regressor's mean over each period; the
+/// highest harmonic of a 0.2 Hz excitation is 1 Hz, and 10 samples of it per cycle measure
+/// that mean as well as a faster log's would, at a fraction of the cost
+/// (docs/experiments.md#one-design-rate).
+pub const DESIGN_RATE_HZ: f64 = 10.0;
 /// Samples per period at which the limits are checked during the optimisation.
 const PENALTY_SAMPLES: usize = 100;
 /// CMA-ES step size of the first round (rad) and of the refinement rounds.

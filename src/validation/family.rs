@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
+use crate::identification::excitation_set::SetDesign;
 use crate::identification::prior::{Prior, PriorWidths};
 use crate::model::Robot;
 pub use crate::twin::family::family_seed;
@@ -140,11 +141,16 @@ pub fn run(rig: &Rig, opts: &FamilyOptions, progress: &dyn Progress) -> Result<F
         .map_err(|m| Error::InvalidInput(format!("family table: {m}")))?;
     // The robots side by side (each one's runs and fits are parallel too): a robot whose
     // fit is long does not leave a core idle at the end.
+    // One identification set for every robot: it is designed on the user's files, which
+    // are the same for all of them.
+    progress.stage("family: identification set design", 1);
+    let design = idset::design(rig.robot, &opts.idset)?;
+    progress.advance();
     progress.stage(&format!("family of {} robots", opts.robots), 0);
     let together = Together(progress);
     let drawn = (0..opts.robots)
         .into_par_iter()
-        .map(|r| one_robot(rig, opts, r, &together))
+        .map(|r| one_robot(rig, opts, &design, r, &together))
         .collect::<Result<Vec<_>>>()?;
     let mut robots = Vec::with_capacity(opts.robots);
     let mut all = Vec::new();
@@ -170,6 +176,7 @@ pub fn run(rig: &Rig, opts: &FamilyOptions, progress: &dyn Progress) -> Result<F
 fn one_robot(
     rig: &Rig,
     opts: &FamilyOptions,
+    design: &SetDesign,
     r: usize,
     progress: &dyn Progress,
 ) -> Result<(FamilyRobot, Vec<MotionResult>)> {
@@ -179,7 +186,7 @@ fn one_robot(
         let plant = opts
             .table
             .draw(rig.robot, rig.drive, &rig.twin, &rig.sensor, seed)?;
-        match benchmark(rig, &plant, opts, progress)? {
+        match benchmark(rig, &plant, opts, design, progress)? {
             Ok((model, fitted_lag, heldouts)) => {
                 let motions: Vec<MotionResult> =
                     heldouts.into_iter().flat_map(|h| h.motions).collect();
@@ -229,6 +236,7 @@ fn benchmark(
     rig: &Rig,
     plant: &Plant,
     opts: &FamilyOptions,
+    design: &SetDesign,
     progress: &dyn Progress,
 ) -> Result<std::result::Result<(String, f64, Vec<Heldout>), String>> {
     let family_rig = Rig {
@@ -240,7 +248,7 @@ fn benchmark(
     if let Some(widths) = &opts.prior {
         idset_opts.fit.prior = Some(Prior::for_robot(rig.robot, Some(rig.drive), widths)?);
     }
-    let set = idset::run(&family_rig, &idset_opts, progress)?;
+    let set = idset::run_designed(&family_rig, &idset_opts, design, progress)?;
     if let Some(why) = set
         .datasets
         .iter()

@@ -14,7 +14,7 @@ use crate::identification::data::Route;
 use crate::identification::excitation::standby_pose;
 use crate::identification::excitation_set::arm::{self, ArmSet};
 use crate::identification::excitation_set::{
-    Member, SetCriterion, SetDesign, SetOptions, design_set,
+    DESIGN_RATE_HZ, Member, SetCriterion, SetDesign, SetOptions, design_set,
 };
 use crate::identification::fit::{FitOptions, Selection, Weighting, identify_logs};
 use crate::measurement::Log;
@@ -214,17 +214,37 @@ pub struct IdSet {
 
 /// Design, run and identify the set on `rig`.
 pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<IdSet> {
+    progress.stage("identification set: joint design", 1);
+    let design = design(rig.robot, opts)?;
+    progress.advance();
+    run_designed(rig, opts, &design, progress)
+}
+
+/// Run and identify the set of `design` (from [`design`] with the same `robot` and `opts`)
+/// on `rig`: robots that differ only in what the files do not show (a family's) share one
+/// design, as a user's identification set does.
+pub fn run_designed(
+    rig: &Rig,
+    opts: &IdSetOptions,
+    design: &SetDesign,
+    progress: &dyn Progress,
+) -> Result<IdSet> {
     let robot = rig.robot;
     check_options(opts)?;
     let payloads = load_payloads(&opts.loads_kg)?;
-    progress.stage("identification set: joint design", 1);
-    let design = design(rig, opts, &payloads)?;
-    progress.advance();
+    if design.trajectories.len() != payloads.len() {
+        return Err(Error::InvalidInput(format!(
+            "a design of {} excitations for a set of {}",
+            design.trajectories.len(),
+            payloads.len()
+        )));
+    }
     let (standby, rest) = standby_rest(rig, opts)?;
     let members = opts.centres.len();
     let plans: Vec<(Fourier, Option<Payload>)> = design
         .trajectories
-        .into_iter()
+        .iter()
+        .cloned()
         .zip(payloads)
         .chain(rest.map(|t| (t, None)))
         .collect();
@@ -239,7 +259,7 @@ pub fn run(rig: &Rig, opts: &IdSetOptions, progress: &dyn Progress) -> Result<Id
     progress.advance();
     let mut set = IdSet {
         trajectories: Vec::new(),
-        conds: design.member_conds,
+        conds: design.member_conds.clone(),
         set_cond: design.cond_final,
         design_s: design.wall_s,
         criterion: opts.criterion,
@@ -293,9 +313,11 @@ fn load_payloads(loads_kg: &[f64]) -> Result<Vec<Option<Payload>>> {
         .collect::<Result<Vec<_>>>()
 }
 
-/// The joint design of the excitations.
-fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Result<SetDesign> {
-    let robot = rig.robot;
+/// The joint design of the set's excitations on the nominal `robot` (the user's files), at
+/// [`DESIGN_RATE_HZ`] whatever the logs' rate, as `excite --set` designs it.
+pub fn design(robot: &Robot, opts: &IdSetOptions) -> Result<SetDesign> {
+    check_options(opts)?;
+    let payloads = load_payloads(&opts.loads_kg)?;
     design_set(
         robot,
         &SetOptions {
@@ -303,7 +325,7 @@ fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Resul
                 .centres
                 .iter()
                 .zip(&opts.base_freq_hz)
-                .zip(payloads)
+                .zip(&payloads)
                 .map(|((centre, &f), payload)| Member {
                     centre: centre.clone(),
                     base_freq_hz: f,
@@ -313,7 +335,7 @@ fn design(rig: &Rig, opts: &IdSetOptions, payloads: &[Option<Payload>]) -> Resul
                 })
                 .collect(),
             harmonics: HARMONICS,
-            sample_rate_hz: rig.logger().rate_hz,
+            sample_rate_hz: DESIGN_RATE_HZ,
             min_speed: opts.fit.min_speed,
             criterion: opts.criterion,
             accel_limits: opts.accel_limits.clone(),

@@ -8,7 +8,7 @@
 use crate::error::{Error, Result};
 use crate::identification::excitation_set::centres::spread_centres;
 use crate::identification::excitation_set::{
-    Member, SetCriterion, SetDesign, SetOptions, design_set,
+    DESIGN_RATE_HZ, Member, SetCriterion, SetDesign, SetOptions, design_set,
 };
 use crate::identification::tuning;
 use crate::model::Robot;
@@ -25,9 +25,6 @@ const LIMIT_FRACTION: f64 = 0.9;
 const WORKSPACE_CUSHION_M: f64 = 0.01;
 /// Step at which each designed excitation is checked against the cell, s.
 const CHECK_STEP_S: f64 = 1e-3;
-/// Rate of the samples the design conditions, Hz: the paper's logging rate (the fit sees
-/// samples at least this dense).
-const SAMPLE_RATE_HZ: f64 = 10.0;
 
 /// What to design for an arm (see the module docs).
 #[derive(Debug, Clone, PartialEq)]
@@ -118,7 +115,7 @@ pub fn plan(robot: &Robot, cell: &Cell, set: &ArmSet) -> Result<ArmPlan> {
     let options = SetOptions {
         members,
         harmonics: set.harmonics,
-        sample_rate_hz: SAMPLE_RATE_HZ,
+        sample_rate_hz: DESIGN_RATE_HZ,
         min_speed: tuning::MIN_SPEED,
         criterion: SetCriterion::DOptimal,
         accel_limits: cell.accel_limits(&set.accel_limits),
