@@ -264,8 +264,8 @@ fn identify_exports_the_identified_robot() {
     ]);
     assert_eq!(code, 0, "{err}");
     let p: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let (e, without) = (p["predicted_J"].as_f64(), p["without_gear_J"].as_f64());
-    let (e, without) = (e.unwrap(), without.expect("without_gear_J"));
+    let (e, without) = (p["predicted_J"].as_f64(), p["alternative_J"].as_f64());
+    let (e, without) = (e.unwrap(), without.expect("alternative_J"));
     assert!(
         p["interval_95_J"].as_f64().unwrap() >= 1.96 * (e - without).abs(),
         "{p}"

@@ -194,10 +194,10 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // (1.06 % with the viscous change alone, 1.20 % at the new default of 1 substep): the
     // positions used to run h/2 ahead, which partly lined them up with each step's power,
     // the mean over the step, recorded at its start (docs/experiments.md#leapfrog-reading).
-    // The slow-friction term (0.3 of the Coulomb friction work at joint speeds below about
-    // twice the least fitted one, which the logs do not show) widens it to 1.39 %: this truth
-    // has no slow-speed friction effect, but its logs cannot say so
-    // (docs/experiments.md#slow-motion-intervals).
+    // The other friction structure's disagreement (the gear-friction model of the same logs)
+    // widens it to 1.30 %: this truth has no gear friction, but its logs cannot say how
+    // friction would grow with the torque where the excitations do not go
+    // (docs/experiments.md#the-other-friction-structure-in-the-interval).
     assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
     assert!(exact.4 < 0.005 && exact.3 < 0.3, "{exact:?}");
     assert!(realistic.0 >= 80.0 && realistic.1 >= 80.0, "{realistic:?}");
@@ -211,8 +211,8 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // for 1.10 %) and so do its intervals (mean half-width 0.47 %). With the structure error
     // taken at its most likely value they shrank more than the errors and covered 75 % of
     // these 12 motions (four excitations' pieces, most likely no structure error); averaged
-    // over what the pieces allow (structure 0.07 W), 100 / 100 %. The slow-friction term
-    // widens them to 0.70 %.
+    // over what the pieces allow (structure 0.07 W), 100 / 100 %. The other friction
+    // structure's disagreement widens them to 0.53 %.
     assert!(
         exact_motors.0 >= 90.0 && exact_motors.1 >= 90.0 && exact_motors.2 < 0.8,
         "{exact_motors:?}"

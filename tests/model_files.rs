@@ -498,8 +498,9 @@ fn model_schema_version_is_written_and_checked() {
 }
 
 /// A model with gear friction reads back, with the covariance of `[theta, copper, gear, P0]`
-/// and its model without gear friction beside; the wrong sizes and a `without_gear` that
-/// does not belong are refused, naming the field.
+/// and its model without gear friction beside as its alternative (read also from an older
+/// file's `without_gear`); the wrong sizes and an alternative that does not belong are
+/// refused, naming the field.
 #[test]
 fn a_model_with_gear_friction_is_written_and_checked() {
     use powertwin::dynamics::ParamLayout;
@@ -509,21 +510,31 @@ fn a_model_with_gear_friction_is_written_and_checked() {
     let pmsm = PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
     let mut gear = pmsm.clone();
     gear.gear_friction = vec![0.02; n];
-    gear.without_gear = Some(Box::new(pmsm.clone()));
+    gear.alternative = Some(Box::new(pmsm.clone()));
     let np = gear.params();
     assert_eq!(np, pmsm.params() + n);
     gear.covariance = vec![0.0; np * np];
     let v = serde_json::to_value(&gear).unwrap();
-    assert!(v["without_gear"].is_object() && v["gear_friction"].is_array());
+    assert!(v["alternative"].is_object() && v["gear_friction"].is_array());
     assert!(
         serde_json::to_value(&pmsm)
             .unwrap()
             .get("gear_friction")
             .is_none()
     );
-    let read: PowerModel = serde_json::from_value(v).unwrap();
+    let read: PowerModel = serde_json::from_value(v.clone()).unwrap();
     assert_eq!(read, gear);
     read.validate(&robot).unwrap();
+    // A file written before the alternative had its name.
+    let mut older = v;
+    let alt = older
+        .as_object_mut()
+        .unwrap()
+        .remove("alternative")
+        .unwrap();
+    older["without_gear"] = alt;
+    let read: PowerModel = serde_json::from_value(older).unwrap();
+    assert_eq!(read, gear);
     let refused = |m: PowerModel, what: &str| {
         let e = m.validate(&robot).unwrap_err().to_string();
         assert!(e.contains(what), "{e}");
@@ -542,19 +553,30 @@ fn a_model_with_gear_friction_is_written_and_checked() {
         },
         "covariance has",
     );
+    // Both with gear friction, both without, or an alternative of the alternative.
     refused(
         PowerModel {
-            without_gear: Some(Box::new(gear.clone())),
+            alternative: Some(Box::new(gear.clone())),
             ..gear.clone()
         },
-        "without_gear",
+        "alternative",
     );
     refused(
         PowerModel {
-            without_gear: Some(Box::new(pmsm.clone())),
+            alternative: Some(Box::new(pmsm.clone())),
             ..pmsm.clone()
         },
-        "without_gear",
+        "alternative",
+    );
+    refused(
+        PowerModel {
+            alternative: Some(Box::new(PowerModel {
+                alternative: Some(Box::new(gear.clone())),
+                ..pmsm.clone()
+            })),
+            ..gear.clone()
+        },
+        "alternative",
     );
 }
 

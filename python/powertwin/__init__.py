@@ -256,20 +256,19 @@ class Run:
 class Prediction:
     """The predicted energy of a logged motion (`powertwin predict`): `energy_J` and its 95 %
     interval half width `interval_J` (J), the measured energy `measured_J`, and the power at
-    the logged samples: `t_s` (s), `power_W` (predicted), `measured_W` (W). `below_seen_J`,
-    `unseen_load_J` and `slow_friction_J` (J) are the parts of the motion the identification
-    logs never showed (a clipped meter below its lowest seen level; a payload heavier than
-    they carried; friction work at joint speeds slower than they fitted), as `predict --json`
-    gives them; `without_gear_J` (J, None without gear friction) what the
-    model predicts without its load-dependent gear friction. The interval includes them."""
+    the logged samples: `t_s` (s), `power_W` (predicted), `measured_W` (W). `below_seen_J` and
+    `unseen_load_J` (J) are the parts of the motion the identification logs never showed (a
+    clipped meter below its lowest seen level; a payload heavier than they carried), as
+    `predict --json` gives them; `alternative_J` (J, None without one) what the model of the
+    other friction law (with load-dependent gear friction if this one has none, without it if
+    it has) predicts. The interval includes them."""
 
     energy_J: float
     interval_J: float
     duration_s: float
     below_seen_J: float
     unseen_load_J: float
-    slow_friction_J: float
-    without_gear_J: Optional[float]
+    alternative_J: Optional[float]
     measured_J: float
     error_pct: float
     power_rmse_W: float
@@ -283,16 +282,14 @@ class PlanPrediction:
     """The predicted energy of a planned motion (`powertwin predict --trajectory`):
     `energy_J` with its 95 % interval half width `interval_J` (J), `duration_s`,
     `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s);
-    `below_seen_J`, `unseen_load_J`, `slow_friction_J` and `without_gear_J` (J) as in
-    `Prediction`."""
+    `below_seen_J`, `unseen_load_J` and `alternative_J` (J) as in `Prediction`."""
 
     energy_J: float
     interval_J: float
     duration_s: float
     below_seen_J: float
     unseen_load_J: float
-    slow_friction_J: float
-    without_gear_J: Optional[float]
+    alternative_J: Optional[float]
     mean_power_W: float
     t_s: np.ndarray
     power_W: np.ndarray

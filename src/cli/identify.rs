@@ -703,13 +703,25 @@ fn write_and_report(
         );
     }
     if let Some(v) = model.min_speed {
-        use powertwin::identification::tuning::{SLOW_FRICTION_SPAN, SLOW_FRICTION_UNSURE};
         eprintln!(
-            "least joint speed fitted: {v:.3} rad/s; how the friction changes below about {:.3} \
-             rad/s is undetermined: predictions' intervals hold {} % of the Coulomb friction \
-             work there",
-            SLOW_FRICTION_SPAN * v,
-            100.0 * SLOW_FRICTION_UNSURE
+            "least joint speed fitted: {v:.3} rad/s; how the friction changes below it is \
+             undetermined"
+        );
+    }
+    let with = if model.gear_friction.is_empty() {
+        "with"
+    } else {
+        "without"
+    };
+    if model.alternative.is_some() {
+        eprintln!(
+            "the friction law is partly undetermined: predictions' intervals hold their \
+             disagreement with the same logs' model {with} load-dependent gear friction"
+        );
+    } else {
+        eprintln!(
+            "the model {with} load-dependent gear friction could not be fitted on these logs: \
+             predictions' intervals do not hold how the friction law might differ"
         );
     }
     if args.json {

@@ -174,8 +174,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "power_rmse_W": r.rmse_w(), "power_signal": model.signal.name(),
                 "below_seen_J": pred.below_seen_j,
                 "unseen_load_J": pred.unseen_load_j,
-                "slow_friction_J": pred.slow_friction_j,
-                "without_gear_J": pred.without_gear_j,
+                "alternative_J": pred.alternative_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -272,8 +271,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "power_signal": model.signal.name(),
             "below_seen_J": pred.below_seen_j,
             "unseen_load_J": pred.unseen_load_j,
-            "slow_friction_J": pred.slow_friction_j,
-            "without_gear_J": pred.without_gear_j,
+            "alternative_J": pred.alternative_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {
@@ -290,9 +288,9 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
 }
 
 /// The notes a prediction carries when its power goes below the lowest level the
-/// identification logs show the meter at, its payload is heavier than they carried, its
-/// slow-friction term's standard deviation is over half the interval's, or its model has gear
-/// friction (empty otherwise).
+/// identification logs show the meter at, its payload is heavier than they carried, or the
+/// model of the other friction structure disagrees with it by over half the interval's
+/// standard deviation (empty otherwise).
 fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     let mut note = String::new();
     if pred.below_seen_j > 0.0 {
@@ -307,16 +305,11 @@ fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
             pred.unseen_load_j
         );
     }
-    let slow_sigma = powertwin::identification::tuning::SLOW_FRICTION_UNSURE * pred.slow_friction_j;
-    if slow_sigma > 0.5 * pred.interval_j / 1.96 {
+    if let Some(e) = pred.alternative_j
+        && (pred.energy_j - e).abs() > 0.5 * pred.interval_j / 1.96
+    {
         note += &format!(
-            "; {:.2} J of friction work at joint speeds slower than identification fitted (its law there undetermined, in the interval)",
-            pred.slow_friction_j
-        );
-    }
-    if let Some(e) = pred.without_gear_j {
-        note += &format!(
-            "; {e:.2} J without the load-dependent gear friction (the difference is in the interval)"
+            "; {e:.2} J by the model of the other friction law (with or without load-dependent gear friction; the logs do not tell them apart, the difference is in the interval)"
         );
     }
     note

@@ -70,29 +70,6 @@ pub const STRUCTURE_ACTIVE_FLOOR: f64 = 0.75;
 /// (docs/experiments.md#a-payload-heavier-than-the-logs-carried).
 pub const UNSEEN_LOAD_LOSS: f64 = 0.01;
 
-/// Span of a prediction's slow-friction term, as a multiple of the least joint speed its
-/// model's identification fitted (`min_speed_rad_s`, [`MIN_SPEED`] by default): the friction
-/// work at joint speed `v` counts with the weight `exp(-(v / (SLOW_FRICTION_SPAN v_min))^2)`.
-/// Identification fits only samples at which every excited joint moves at least `v_min`, so
-/// the friction law below about twice that (a Stribeck rise, a gear's friction as it starts
-/// to turn) is what the logs do not show. Why 2: over 16 family robots (two family seeds) a
-/// span of 1 needed the whole of that friction work as its standard deviation (fraction 1,
-/// not [`SLOW_FRICTION_UNSURE`]'s 0.3) to cover as much (95.3 %, every robot at 79 % or
-/// more), and a hard cut at twice `v_min` instead of the smooth weight gave the same as 2
-/// (95.1 %) (docs/experiments.md#slow-motion-intervals).
-pub const SLOW_FRICTION_SPAN: f64 = 2.0;
-
-/// Fraction of the Coulomb friction work at slow joint speeds ([`SLOW_FRICTION_SPAN`]) that a
-/// prediction takes as one standard deviation more: `SLOW_FRICTION_UNSURE integral sum_i
-/// |fc_i dq_i| exp(-(dq_i / (SLOW_FRICTION_SPAN v_min))^2) dt`, reported as `slow_friction_J`.
-/// Why 0.3: over 16 family robots (two family seeds, 2 x 12 held-out motions each, from the
-/// log), slow linear moves were the pooled intervals' largest miss (coverage 88 %, one robot
-/// at 67 %); 0.2 gave 93.2 % (lowest robot 71 %), 0.25 94.3 % (75 %, the target's edge), 0.3
-/// 95.1 % with every robot at 79 % or more (median |z| 0.62), 0.4 96.1 % (0.58). The third
-/// family seed, not used in the choice, gave 93.8 % at 0.3 (84.4 % without the term)
-/// (docs/experiments.md#slow-motion-intervals).
-pub const SLOW_FRICTION_UNSURE: f64 = 0.3;
-
 /// Standard deviations by which a copper-loss coefficient must exceed zero to stay free in a
 /// PMSM fit (the others are held at zero). Why 2: a coefficient within two deviations of zero
 /// trades against the standby along directions the data barely see and predicts other

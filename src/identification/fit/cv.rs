@@ -26,7 +26,8 @@ struct PieceSums {
 /// [`Samples::new`]), then fit the chosen one on all samples. On the held-out pieces, the
 /// mean-power errors beyond what the fold's parameter covariance and residual explain give
 /// the model's structure error (fitted by `structure_fit`: `structure_sigma_W` and `structure_rel`),
-/// used for prediction intervals.
+/// used for prediction intervals, and the other friction structure (with or without gear
+/// friction) is fitted on all samples beside it ([`Selection::alternative`]).
 ///
 /// Errors: no candidates, or a fit that fails on all data.
 pub fn select(
@@ -91,12 +92,20 @@ pub fn select(
         ));
     };
     let chosen = scores[best].estimator;
-    let pmsm = scores.iter().position(|c| c.estimator == Estimator::Pmsm);
-    let mut take = |k: usize| full[k].take().expect("each candidate's fit is taken once");
-    let without_gear = match pmsm {
-        Some(k) if chosen == Estimator::Gear => Some(take(k)?),
-        _ => None,
+    // The other friction structure: its cross-validated fit when it was a candidate, else
+    // fitted on all samples now (a structure the samples cannot determine has none).
+    let other = if chosen.fits_gear() {
+        Estimator::Pmsm
+    } else {
+        Estimator::Gear
     };
+    let mut take = |k: usize| full[k].take().expect("each candidate's fit is taken once");
+    let every = |_: usize| true;
+    let alternative = match scores.iter().position(|c| c.estimator == other) {
+        Some(k) => Some(take(k)?),
+        None => fit(template, &s.for_estimator(other), other, weighting, &every).ok(),
+    }
+    .map(|f| (other, f));
     let mut f = take(best)?;
     let StructureError {
         sigma_w,
@@ -117,7 +126,7 @@ pub fn select(
         chosen,
         fit: f,
         consistent: None,
-        without_gear,
+        alternative,
         motor_power: s.motors,
     })
 }

@@ -173,11 +173,11 @@ pub struct Selection {
     pub fit: Fit,
     /// The consistent projection of the fit, when asked for.
     pub consistent: Option<crate::identification::consistent::Consistent>,
-    /// When [`Estimator::Gear`] is chosen and [`Estimator::Pmsm`] was a candidate: the
-    /// `pmsm` fit on all samples, the same model without the gear-friction term. Its
-    /// predictions' disagreement with the chosen model's widens the intervals
-    /// ([`PowerModel::without_gear`]).
-    pub without_gear: Option<Fit>,
+    /// The other friction structure fitted on all samples: [`Estimator::Gear`] when the
+    /// chosen estimator has no gear friction, [`Estimator::Pmsm`] when it has (`None` when it
+    /// cannot be fitted). Its predictions' disagreement with the chosen model's widens the
+    /// intervals ([`PowerModel::alternative`]).
+    pub alternative: Option<(Estimator, Fit)>,
     /// Whether each motor's logged power was fitted besides the arm's.
     pub motor_power: bool,
 }

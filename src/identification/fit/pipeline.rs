@@ -86,24 +86,27 @@ pub fn identify_logs(
             consistent_model(robot, &samples, &selection.fit, selection.chosen, opts)?;
         selection.fit.model = model;
         selection.consistent = Some(consistent);
-        if let Some(alt) = &mut selection.without_gear {
-            alt.model = consistent_model(robot, &samples, alt, Estimator::Pmsm, opts)?.0;
+        if let Some((estimator, alt)) = &mut selection.alternative {
+            alt.model = consistent_model(robot, &samples, alt, *estimator, opts)?.0;
         }
     }
     let lowest_seen = samples.lowest_seen();
-    for model in std::iter::once(&mut selection.fit.model)
-        .chain(selection.without_gear.as_mut().map(|alt| &mut alt.model))
-    {
+    for model in std::iter::once(&mut selection.fit.model).chain(
+        selection
+            .alternative
+            .as_mut()
+            .map(|(_, alt)| &mut alt.model),
+    ) {
         model.lowest_seen = lowest_seen;
         // The floor the fit used, at the model's (refitted) standby.
         let standby: f64 = model.constant.iter().sum();
         model.bus_floor = samples.floor.map(|f| f.at(standby).0);
         model.min_speed = (opts.min_speed > 0.0).then_some(opts.min_speed);
     }
-    selection.fit.model.without_gear = selection
-        .without_gear
+    selection.fit.model.alternative = selection
+        .alternative
         .as_ref()
-        .map(|alt| Box::new(alt.model.clone()));
+        .map(|(_, alt)| Box::new(alt.model.clone()));
     selection.fit.model.power_lag_s = lag;
     selection.fit.model.payload_seen = Some(
         logs.iter()

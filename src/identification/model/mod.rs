@@ -151,11 +151,8 @@ pub struct PowerModel {
     )]
     pub payload_seen: Option<f64>,
     /// The least joint speed identification fitted, rad/s: every sample fitted had each
-    /// excited joint at least this fast. A prediction adds
-    /// [`crate::identification::tuning::SLOW_FRICTION_UNSURE`] of the Coulomb friction work
-    /// at speeds below about twice it to its standard deviation (`slow_friction_J`): how the
-    /// friction changes there is not in the logs (`None`: no such term; a model not fitted
-    /// by speed, or an older file).
+    /// excited joint at least this fast, so how the friction changes below it is not in the
+    /// logs (`None`: a model not fitted by speed, or an older file).
     #[serde(
         default,
         rename = "min_speed_rad_s",
@@ -167,14 +164,20 @@ pub struct PowerModel {
     /// the power at a log's samples shifts by it; energies of motions do not depend on it.
     #[serde(default, skip_serializing_if = "zero_lag")]
     pub power_lag_s: f64,
-    /// For a model with gear friction: the same robot's model without it (the `pmsm` fit
-    /// of the same logs). The excitations show how large the load-dependent friction is, not
-    /// its law (how it differs with the direction of the power flow, which periodic motions
-    /// that return to their start barely weigh): a prediction adds the two models'
-    /// disagreement on the motion to its standard deviation (`without_gear_J`). `None`: no
-    /// gear friction, or an older file.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub without_gear: Option<Box<PowerModel>>,
+    /// The same robot's model of the other friction structure, fitted on the same logs: with
+    /// load-dependent gear friction (`gear`) when this model has none, without it (`pmsm`)
+    /// when it has. The excitations show how large the friction is where they move, not its
+    /// law where other motions go (how it grows with the transmitted torque and differs with
+    /// the direction of the power flow, which periodic motions that return to their start
+    /// barely weigh): a prediction adds the two models' disagreement on the motion to its
+    /// standard deviation (`alternative_J`). `None`: the other structure could not be fitted,
+    /// or an older file. Read from `without_gear` in files of earlier versions.
+    #[serde(
+        default,
+        alias = "without_gear",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub alternative: Option<Box<PowerModel>>,
 }
 
 /// Whether a model has no power lag (then left out of the file, as before there was one).
@@ -207,7 +210,7 @@ impl PowerModel {
             payload_seen: None,
             min_speed: None,
             power_lag_s: 0.0,
-            without_gear: None,
+            alternative: None,
         })
     }
 
@@ -303,14 +306,22 @@ impl PowerModel {
                 "payload_seen_kg = {v} must be finite and >= 0"
             )));
         }
-        if let Some(alt) = &self.without_gear {
-            if self.gear_friction.is_empty() || !alt.gear_friction.is_empty() {
+        if let Some(alt) = &self.alternative {
+            if self.gear_friction.is_empty() == alt.gear_friction.is_empty() {
                 return Err(bad(
-                    "without_gear belongs to a model with gear_friction and has none itself".into(),
+                    "the alternative model must have gear_friction exactly when this one has none"
+                        .into(),
+                ));
+            }
+            if alt.alternative.is_some() || alt.columns != self.columns {
+                return Err(bad(
+                    "the alternative model must have this model's base parameters and no \
+                     alternative of its own"
+                        .into(),
                 ));
             }
             alt.validate(robot)
-                .map_err(|e| bad(format!("without_gear: {e}")))?;
+                .map_err(|e| bad(format!("alternative: {e}")))?;
         }
         Ok(())
     }
@@ -493,7 +504,7 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<f64>> {
         let mut total = Vec::with_capacity(t.len());
-        self.each_state(robot, traj, events, efficiency, t, |e| {
+        self.each_state(robot, traj, events, efficiency, t, None, |e| {
             total.push(e.p.iter().fold(0.0, |s, pi| s + pi));
         })?;
         Ok(total)
@@ -512,7 +523,7 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<Vec<f64>>> {
         let mut joints = vec![Vec::with_capacity(t.len()); robot.dof()];
-        self.each_state(robot, traj, events, efficiency, t, |e| {
+        self.each_state(robot, traj, events, efficiency, t, None, |e| {
             for (series, pi) in joints.iter_mut().zip(e.p) {
                 series.push(*pi);
             }
@@ -521,9 +532,12 @@ impl PowerModel {
     }
 
     /// Call `f` with each state's evaluation at the times `t`, with the payload model in
-    /// force then. The Coulomb friction takes the trajectory's expected signs
-    /// ([`Trajectory::coulomb_signs`]; for a motion estimated from a log, weighed down where a
-    /// joint is not seen to move), and an unsure sign adds its variance to the copper loss.
+    /// force then, and the total power of `alternative` (a model with the same base
+    /// parameters, [`PowerModel::alternative`]) at the same state. The Coulomb friction takes
+    /// the trajectory's expected signs ([`Trajectory::coulomb_signs`]; for a motion estimated
+    /// from a log, weighed down where a joint is not seen to move), and an unsure sign adds
+    /// its variance to the copper loss.
+    #[allow(clippy::too_many_arguments)]
     fn each_state(
         &self,
         robot: &Robot,
@@ -531,21 +545,22 @@ impl PowerModel {
         events: &[PayloadEvent],
         efficiency: f64,
         t: &[f64],
+        alternative: Option<&PowerModel>,
         mut f: impl FnMut(&StateEval),
     ) -> Result<()> {
         self.check_robot(robot)?;
+        if alternative.is_some_and(|alt| alt.columns != self.columns) {
+            return Err(Error::InvalidInput(
+                "the alternative model's base parameters are not this model's".into(),
+            ));
+        }
         let base = (!events.is_empty())
             .then(|| self.base_params(robot))
             .transpose()?;
-        let mut models = vec![(f64::NEG_INFINITY, self.clone(), 0.0)];
-        for e in events {
-            let model = match (&e.payload, &base) {
-                (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
-                _ => self.clone(),
-            };
-            let mass = e.payload.as_ref().map_or(0.0, |p| p.inertia.mass);
-            models.push((e.t_s, model, mass));
-        }
+        let models = self.payload_models(robot, events, efficiency, base.as_ref())?;
+        let alt_models = alternative
+            .map(|alt| alt.payload_models(robot, events, efficiency, base.as_ref()))
+            .transpose()?;
         let n = robot.dof();
         let mut ws = Workspace::new(robot);
         let mut w = DMatrix::zeros(n, self.layout.len());
@@ -554,24 +569,15 @@ impl PowerModel {
         let (mut tau, mut dp_dtau) = (vec![0.0; n], vec![0.0; n]);
         let coulomb = self.coulomb_params();
         for &t in t {
-            let (model, payload_kg) = models
-                .iter()
-                .rev()
-                .find(|(from, _, _)| *from <= t)
-                .map_or((self, 0.0), |(_, m, kg)| (m, *kg));
+            let (model, payload_kg) = in_force(&models, t);
             traj.sample(t, &mut q, &mut dq, &mut ddq);
             traj.coulomb_signs(t, &dq, &mut signs);
             regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
             for i in 0..n {
-                // A moving joint's Coulomb sign the motion is unsure of, `s` in (-1, 1): the
-                // expected torque has `fc s`, and its expected square is `fc^2 (1 - s^2)` more
-                // than the expected torque's square.
                 unsure[i] = 0.0;
                 if let Some((c, k)) = coulomb[i] {
                     w[(i, c)] = signs[i];
-                    if sign(dq[i]) != 0.0 {
-                        unsure[i] = model.theta[k].powi(2) * (1.0 - signs[i] * signs[i]);
-                    }
+                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]);
                 }
             }
             for i in 0..n {
@@ -581,6 +587,16 @@ impl PowerModel {
                 dp_dtau[i] =
                     dq[i] + 2.0 * model.copper[i] * tau[i] + model.gear(i) * mech.signum() * dq[i];
             }
+            let alternative_p = alt_models.as_ref().map(|models| {
+                let alt = in_force(models, t).0;
+                (0..n)
+                    .map(|i| {
+                        let extra =
+                            coulomb[i].map_or(0.0, |(_, k)| alt.unsure_sign(k, signs[i], dq[i]));
+                        alt.joint_power(alt.torque(&w, i), i, dq[i]) + alt.copper[i] * extra
+                    })
+                    .sum()
+            });
             f(&StateEval {
                 p: &p,
                 tau: &tau,
@@ -590,9 +606,44 @@ impl PowerModel {
                 unsure: &unsure,
                 model,
                 payload_kg,
+                alternative_p,
             });
         }
         Ok(())
+    }
+
+    /// This model carrying the payloads of `events`, each from its time on (this model before
+    /// the first), with each payload's mass, kg; `base` the base-parameter set (needed only
+    /// with events).
+    fn payload_models(
+        &self,
+        robot: &Robot,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        base: Option<&BaseParams>,
+    ) -> Result<Vec<(f64, PowerModel, f64)>> {
+        let mut models = vec![(f64::NEG_INFINITY, self.clone(), 0.0)];
+        for e in events {
+            let model = match (&e.payload, base) {
+                (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
+                _ => self.clone(),
+            };
+            let mass = e.payload.as_ref().map_or(0.0, |p| p.inertia.mass);
+            models.push((e.t_s, model, mass));
+        }
+        Ok(models)
+    }
+
+    /// A moving joint's expected squared torque beyond its expected torque squared for a
+    /// Coulomb sign `s` in (-1, 1) the motion is unsure of (N^2 m^2): the expected torque has
+    /// `fc s`, and its expected square is `fc^2 (1 - s^2)` more. `k`: the Coulomb
+    /// parameter's index in `theta`; 0 at rest.
+    fn unsure_sign(&self, k: usize, s: f64, dq: f64) -> f64 {
+        if sign(dq) != 0.0 {
+            self.theta[k].powi(2) * (1.0 - s * s)
+        } else {
+            0.0
+        }
     }
 
     /// Each joint's regressor column of Coulomb friction and the index of its parameter in
@@ -647,4 +698,17 @@ struct StateEval<'a> {
     model: &'a PowerModel,
     /// Mass of the payload then attached, kg (0 without one).
     payload_kg: f64,
+    /// Total power of the alternative model at the state (with the same payload), W; `None`
+    /// when none was asked for.
+    alternative_p: Option<f64>,
+}
+
+/// The model in force at time `t` (s) of a list from [`PowerModel::payload_models`], with its
+/// payload's mass, kg.
+fn in_force(models: &[(f64, PowerModel, f64)], t: f64) -> (&PowerModel, f64) {
+    models
+        .iter()
+        .rev()
+        .find(|(from, _, _)| *from <= t)
+        .map_or((&models[0].1, 0.0), |(_, m, kg)| (m, *kg))
 }

@@ -1,7 +1,7 @@
 //! Energy predictions of a [`PowerModel`] with their 95 % intervals: the parameter covariance
 //! propagated through the energy, the cross-validated structure error, and what the
 //! identification logs left undetermined (a clipped meter below the lowest level seen, a
-//! payload heavier than the logs carried, the gear term's disagreement).
+//! payload heavier than the logs carried, the friction structure).
 
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -23,10 +23,8 @@ impl PowerModel {
     /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
     /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
     /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus
-    /// [`tuning::SLOW_FRICTION_UNSURE`] of the Coulomb friction work at slow joint speeds
-    /// (`slow_friction_J`), plus, for a model with gear
-    /// friction, its disagreement with the model without it (`without_gear_J`). `dt`:
-    /// integration step, s.
+    /// its disagreement with the model of the other friction structure
+    /// ([`PowerModel::alternative`], `alternative_J`). `dt`: integration step, s.
     pub fn predict(
         &self,
         robot: &Robot,
@@ -45,12 +43,13 @@ impl PowerModel {
         let h = traj.duration() / steps as f64;
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
-        let without_gear_j = match &self.without_gear {
-            Some(alt) => Some(alt.predict(robot, traj, events, efficiency, dt)?.energy_j),
-            None => None,
-        };
+        let alternative = self.alternative.as_deref();
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
-        let (mut unseen_load, mut slow_friction) = (0.0, 0.0);
+        let (mut unseen_load, mut alt_motor, mut alt_grid) = (0.0, 0.0, 0.0);
+        let alt_floor = match alternative {
+            Some(alt) if alt.signal.clipped() => alt.bus_floor.unwrap_or(0.0),
+            _ => 0.0,
+        };
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let floor = if clipped {
             self.bus_floor.unwrap_or(0.0)
@@ -61,7 +60,7 @@ impl PowerModel {
         let mut g = vec![0.0; np];
         let coulomb = self.coulomb_params();
         let mut k = 0usize;
-        self.each_state(robot, traj, events, efficiency, &t, |e| {
+        self.each_state(robot, traj, events, efficiency, &t, alternative, |e| {
             let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
             k += 1;
             let total: f64 = e.p.iter().sum();
@@ -74,7 +73,10 @@ impl PowerModel {
                 unseen += weight * (low - total.max(0.0)).max(0.0);
             }
             unseen_load += weight * self.unseen_load_power(e);
-            slow_friction += weight * self.slow_friction_power(e, &coulomb);
+            if let Some(p) = e.alternative_p {
+                alt_motor += weight * p;
+                alt_grid += weight * p.max(alt_floor);
+            }
             if !(clipped && total < floor) {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
@@ -89,13 +91,20 @@ impl PowerModel {
         let duration = traj.duration();
         let active = active.max(self.structure_active * duration);
         let energy_j = if clipped { grid } else { motor };
-        let disagreement = without_gear_j.map_or(0.0, |e| energy_j - e);
+        // What the alternative predicts, as its own `predict` would: its own signal and floor.
+        let alternative_j = alternative.map(|alt| {
+            if alt.signal.clipped() {
+                alt_grid
+            } else {
+                alt_motor
+            }
+        });
+        let disagreement = alternative_j.map_or(0.0, |e| energy_j - e);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
             + (0.5 * unseen).powi(2)
             + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
-            + (tuning::SLOW_FRICTION_UNSURE * slow_friction).powi(2)
             + disagreement.powi(2))
         .sqrt();
         Ok(Prediction {
@@ -106,8 +115,7 @@ impl PowerModel {
             duration_s: duration,
             below_seen_j: unseen,
             unseen_load_j: unseen_load,
-            slow_friction_j: slow_friction,
-            without_gear_j,
+            alternative_j,
         })
     }
 
@@ -164,31 +172,6 @@ impl PowerModel {
             _ => 0.0,
         }
     }
-
-    /// Coulomb friction power (W) of state `e` at slow joint speeds, `sum_i |fc_i dq_i|
-    /// exp(-(dq_i / (SLOW_FRICTION_SPAN min_speed))^2)` with `fc_i` the model's Coulomb
-    /// parameter (`coulomb` as [`PowerModel::coulomb_params`] gives). Identification fitted
-    /// only samples at which every excited joint moved at least `min_speed`, so how the
-    /// friction changes at slower speeds is not in the model; 0 for a model without Coulomb
-    /// friction or without a least fitted speed.
-    fn slow_friction_power(&self, e: &StateEval, coulomb: &[Option<(usize, usize)>]) -> f64 {
-        let Some(span) = self
-            .min_speed
-            .filter(|v| *v > 0.0)
-            .map(|v| tuning::SLOW_FRICTION_SPAN * v)
-        else {
-            return 0.0;
-        };
-        coulomb
-            .iter()
-            .zip(e.dq)
-            .filter_map(|(c, &v)| {
-                let (_, kc) = (*c)?;
-                let x = v / span;
-                Some((e.model.theta[kc] * v).abs() * (-x * x).exp())
-            })
-            .sum()
-    }
 }
 
 /// An energy prediction with its uncertainty.
@@ -222,18 +205,12 @@ pub struct Prediction {
     /// interval's standard deviation.
     #[serde(rename = "unseen_load_J")]
     pub unseen_load_j: f64,
-    /// Coulomb friction work at slow joint speeds (`integral sum_i |fc_i dq_i| exp(-(dq_i /
-    /// (2 min_speed))^2) dt`, with the model's least fitted speed `min_speed_rad_s`), J: the
-    /// identification logs show the friction only at speeds above that;
-    /// `SLOW_FRICTION_UNSURE` of it is in the interval's standard deviation (0 for a model
-    /// without a least fitted speed).
-    #[serde(rename = "slow_friction_J")]
-    pub slow_friction_j: f64,
-    /// For a model with gear friction, the energy its model without gear friction predicts
-    /// ([`PowerModel::without_gear`]), J: the difference is in the interval's standard
-    /// deviation. `None` without gear friction.
-    #[serde(rename = "without_gear_J", skip_serializing_if = "Option::is_none")]
-    pub without_gear_j: Option<f64>,
+    /// The energy the model of the other friction structure predicts (with load-dependent
+    /// gear friction if this model has none, without it if it has;
+    /// [`PowerModel::alternative`]), J: the difference is in the interval's standard
+    /// deviation. `None` without an alternative.
+    #[serde(rename = "alternative_J", skip_serializing_if = "Option::is_none")]
+    pub alternative_j: Option<f64>,
 }
 
 /// Predicted energy of a motion.
@@ -252,60 +229,58 @@ pub struct EnergyPrediction {
 mod tests {
     use crate::dynamics::ParamLayout;
     use crate::identification::model::PowerModel;
-    use crate::identification::tuning;
     use crate::model::builtin;
     use crate::model::urdf::{LoadOptions, load_str};
     use crate::trajectory::sampled::Sampled;
 
-    /// A model of only Coulomb friction (10 N m per joint), fitted no slower than `min_speed`
-    /// (rad/s), predicting joint 1 turning at `speed` (rad/s) for 10 s, the others at rest:
-    /// the energy, its interval and its slow-friction work, J.
-    fn coulomb_only(speed: f64, min_speed: Option<f64>) -> (f64, f64, f64) {
+    #[test]
+    fn the_other_friction_structure_s_disagreement_is_the_interval() {
         let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).unwrap();
         let mut model =
             PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
-        model.min_speed = min_speed;
         let coulomb = model.coulomb_params();
         for (_, kc) in coulomb.iter().flatten() {
             model.theta[*kc] = 10.0;
         }
+        model.constant[0] = 100.0;
+        // The same friction with 5 % of the transmitted power lost in the gear besides.
+        let mut alt = model.clone();
+        alt.gear_friction = vec![0.05; robot.dof()];
+        model.alternative = Some(Box::new(alt.clone()));
+        // Joint 1 turning at 0.5 rad/s for 10 s, the others at rest.
         let t: Vec<f64> = (0..=100).map(|k| 0.1 * k as f64).collect();
-        // Per joint, per sample.
         let rest = [0.0, 0.2, 0.2, 0.0, 0.8, 0.0];
         let q = (0..6)
             .map(|j| {
                 t.iter()
-                    .map(|&t| if j == 0 { speed * t } else { rest[j] })
+                    .map(|&t| if j == 0 { 0.5 * t } else { rest[j] })
                     .collect()
             })
             .collect();
         let dq = (0..6)
-            .map(|j| vec![if j == 0 { speed } else { 0.0 }; t.len()])
+            .map(|j| vec![if j == 0 { 0.5 } else { 0.0 }; t.len()])
             .collect();
         let traj = Sampled::new(t, q, Some(dq), None).unwrap();
         let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
-        (p.energy_j, p.interval_j, p.slow_friction_j)
-    }
-
-    #[test]
-    fn friction_at_slow_joint_speeds_widens_the_interval() {
-        // At 0.05 rad/s the friction work is 10 N m x 0.05 rad/s x 10 s = 5 J, all of it at a
-        // speed identification fitted no sample at (weight exp(-(0.05 / (2 x 0.05))^2)).
-        let (energy, interval, slow) = coulomb_only(0.05, Some(tuning::MIN_SPEED));
-        assert!((energy - 5.0).abs() < 1e-6, "{energy} J");
-        let expected = 5.0 * (-0.25f64).exp();
-        assert!((slow - expected).abs() < 1e-6, "{slow} J vs {expected} J");
-        // Nothing else is uncertain in this model: the interval is the slow-friction term.
-        let sigma = tuning::SLOW_FRICTION_UNSURE * slow;
-        assert!((interval - 1.96 * sigma).abs() < 1e-9, "{interval} J");
-        // At 0.5 rad/s the same friction is fitted: no slow-friction term to speak of.
-        let (energy, interval, slow) = coulomb_only(0.5, Some(tuning::MIN_SPEED));
-        assert!((energy - 50.0).abs() < 1e-6, "{energy} J");
-        assert!(slow < 1e-9 && interval < 1e-9, "{slow} J, {interval} J");
-        // A model without a least fitted speed (not fitted by speed, or an older file) has no
-        // such term.
-        let (energy, interval, slow) = coulomb_only(0.05, None);
-        assert!((energy - 5.0).abs() < 1e-6, "{energy} J");
-        assert_eq!((interval, slow), (0.0, 0.0));
+        let other = alt.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
+        // Standby 1000 J and friction work 10 N m x 0.5 rad/s x 10 s = 50 J; the gear loses
+        // 5 % of that besides.
+        assert!((p.energy_j - 1050.0).abs() < 1e-6, "{} J", p.energy_j);
+        assert!(
+            (other.energy_j - 1052.5).abs() < 1e-6,
+            "{} J",
+            other.energy_j
+        );
+        assert_eq!(p.alternative_j, Some(other.energy_j));
+        // Nothing else is uncertain in this model: the interval is the disagreement.
+        assert!(
+            (p.interval_j - 1.96 * 2.5).abs() < 1e-6,
+            "{} J",
+            p.interval_j
+        );
+        // Without an alternative there is no such term.
+        model.alternative = None;
+        let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
+        assert_eq!((p.alternative_j, p.interval_j), (None, 0.0));
     }
 }
