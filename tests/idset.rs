@@ -195,7 +195,7 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // positions used to run h/2 ahead, which partly lined them up with each step's power,
     // the mean over the step, recorded at its start (docs/experiments.md#leapfrog-reading).
     // The other friction structure's disagreement (the gear-friction model of the same logs)
-    // widens it to 1.30 %: this truth has no gear friction, but its logs cannot say how
+    // widens it: this truth has no gear friction, but its logs cannot say how
     // friction would grow with the torque where the excitations do not go
     // (docs/experiments.md#the-other-friction-structure-in-the-interval).
     assert!(exact.0 >= 80.0 && exact.1 >= 90.0, "{exact:?}");
@@ -212,7 +212,7 @@ fn intervals_calibrated_on_cross_validation_cover_held_out_motions() {
     // taken at its most likely value they shrank more than the errors and covered 75 % of
     // these 12 motions (four excitations' pieces, most likely no structure error); averaged
     // over what the pieces allow (structure 0.07 W), 100 / 100 %. The other friction
-    // structure's disagreement widens them to 0.53 %.
+    // structure's disagreement widens them.
     assert!(
         exact_motors.0 >= 90.0 && exact_motors.1 >= 90.0 && exact_motors.2 < 0.8,
         "{exact_motors:?}"

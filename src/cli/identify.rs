@@ -713,16 +713,20 @@ fn write_and_report(
     } else {
         "without"
     };
-    if model.alternative.is_some() {
-        eprintln!(
+    // Only the cross-validated estimators fit the other friction structure.
+    let note = match (estimator, &model.alternative) {
+        (None, _) => None,
+        (Some(_), Some(_)) => Some(format!(
             "the friction law is partly undetermined: predictions' intervals hold their \
              disagreement with the same logs' model {with} load-dependent gear friction"
-        );
-    } else {
-        eprintln!(
+        )),
+        (Some(_), None) => Some(format!(
             "the model {with} load-dependent gear friction could not be fitted on these logs: \
              predictions' intervals do not hold how the friction law might differ"
-        );
+        )),
+    };
+    if let Some(note) = note {
+        eprintln!("{note}");
     }
     if args.json {
         let report = json!({

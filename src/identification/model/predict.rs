@@ -45,11 +45,7 @@ impl PowerModel {
         let clipped = self.signal.clipped();
         let alternative = self.alternative.as_deref();
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
-        let (mut unseen_load, mut alt_motor, mut alt_grid) = (0.0, 0.0, 0.0);
-        let alt_floor = match alternative {
-            Some(alt) if alt.signal.clipped() => alt.bus_floor.unwrap_or(0.0),
-            _ => 0.0,
-        };
+        let (mut unseen_load, mut alt_energy) = (0.0, 0.0);
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let floor = if clipped {
             self.bus_floor.unwrap_or(0.0)
@@ -73,9 +69,9 @@ impl PowerModel {
                 unseen += weight * (low - total.max(0.0)).max(0.0);
             }
             unseen_load += weight * self.unseen_load_power(e);
-            if let Some(p) = e.alternative_p {
-                alt_motor += weight * p;
-                alt_grid += weight * p.max(alt_floor);
+            if let (Some(alt), Some(p)) = (alternative, e.alternative_p) {
+                // What the alternative's own `predict` integrates: its own meter's reading.
+                alt_energy += weight * alt.reading(p);
             }
             if !(clipped && total < floor) {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
@@ -91,14 +87,7 @@ impl PowerModel {
         let duration = traj.duration();
         let active = active.max(self.structure_active * duration);
         let energy_j = if clipped { grid } else { motor };
-        // What the alternative predicts, as its own `predict` would: its own signal and floor.
-        let alternative_j = alternative.map(|alt| {
-            if alt.signal.clipped() {
-                alt_grid
-            } else {
-                alt_motor
-            }
-        });
+        let alternative_j = alternative.map(|_| alt_energy);
         let disagreement = alternative_j.map_or(0.0, |e| energy_j - e);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
