@@ -580,6 +580,60 @@ fn a_model_with_gear_friction_is_written_and_checked() {
     );
 }
 
+/// A model carries its drive file's Stribeck law per joint: written and read back, left out
+/// of a file without one, and refused with the wrong length or values, naming the field.
+#[test]
+fn a_model_s_stribeck_law_is_written_and_checked() {
+    use powertwin::dynamics::ParamLayout;
+    use powertwin::identification::model::{PowerModel, Stribeck};
+    let robot = irb1200();
+    let n = robot.dof();
+    let plain = PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
+    assert!(
+        serde_json::to_value(&plain)
+            .unwrap()
+            .get("stribeck")
+            .is_none()
+    );
+    let law = Stribeck {
+        rise: 0.25,
+        speed: 0.05,
+    };
+    let mut with = plain.clone();
+    with.stribeck = vec![Some(law); n];
+    with.stribeck[5] = None;
+    let v = serde_json::to_value(&with).unwrap();
+    assert_eq!(v["stribeck"][0]["speed_rad_s"], 0.05);
+    assert!(v["stribeck"][5].is_null());
+    let read: PowerModel = serde_json::from_value(v).unwrap();
+    assert_eq!(read, with);
+    read.validate(&robot).unwrap();
+    // The drive file's joint 2 (static 15 N m over Coulomb 12 N m at 0.05 rad/s).
+    let drive = Drive::from_file(&repo("models/irb1200_7_70.drive.toml"), &robot).unwrap();
+    let j2 = Stribeck::of_drive(&drive.joints()[1]).expect("the drive file's law");
+    assert!((j2.rise - 0.25).abs() < 1e-12 && j2.speed == 0.05, "{j2:?}");
+    for (stribeck, what) in [
+        (vec![Some(law); n - 1], "stribeck has 5 entries"),
+        (
+            vec![Some(Stribeck { rise: -0.1, ..law }); n],
+            "stribeck of joint 1",
+        ),
+        (
+            vec![Some(Stribeck { speed: 0.0, ..law }); n],
+            "stribeck of joint 1",
+        ),
+    ] {
+        let e = PowerModel {
+            stribeck,
+            ..plain.clone()
+        }
+        .validate(&robot)
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains(what), "{e}");
+    }
+}
+
 const GOOD_PAYLOAD: &str = r#"
 name = "p"
 frame = "tool0"

@@ -261,7 +261,9 @@ class Prediction:
     clipped meter below its lowest seen level; a payload heavier than they carried), as
     `predict --json` gives them; `alternative_J` (J, None without one) what the model of the
     other friction law (with load-dependent gear friction if this one has none, without it if
-    it has) predicts. The interval includes them."""
+    it has) predicts; `stribeck_J` (J, None without a Stribeck law) what it predicts with the
+    whole of the drive file's Stribeck rise at slow joint speeds (the model takes part of it).
+    The interval includes them."""
 
     energy_J: float
     interval_J: float
@@ -269,6 +271,7 @@ class Prediction:
     below_seen_J: float
     unseen_load_J: float
     alternative_J: Optional[float]
+    stribeck_J: Optional[float]
     measured_J: float
     error_pct: float
     power_rmse_W: float
@@ -282,7 +285,7 @@ class PlanPrediction:
     """The predicted energy of a planned motion (`powertwin predict --trajectory`):
     `energy_J` with its 95 % interval half width `interval_J` (J), `duration_s`,
     `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s);
-    `below_seen_J`, `unseen_load_J` and `alternative_J` (J) as in `Prediction`."""
+    `below_seen_J`, `unseen_load_J`, `alternative_J` and `stribeck_J` (J) as in `Prediction`."""
 
     energy_J: float
     interval_J: float
@@ -290,6 +293,7 @@ class PlanPrediction:
     below_seen_J: float
     unseen_load_J: float
     alternative_J: Optional[float]
+    stribeck_J: Optional[float]
     mean_power_W: float
     t_s: np.ndarray
     power_W: np.ndarray

@@ -241,6 +241,7 @@ fn plan_dict<'py>(py: Python<'py>, p: &PlanPrice, t0: f64) -> PyResult<Bound<'py
     d.set_item("below_seen_J", pred.below_seen_j)?;
     d.set_item("unseen_load_J", pred.unseen_load_j)?;
     d.set_item("alternative_J", pred.alternative_j)?;
+    d.set_item("stribeck_J", pred.stribeck_j)?;
     d.set_item("mean_power_W", p.mean_power_w())?;
     let t: Vec<f64> = p.t_s.iter().map(|t| t + t0).collect();
     d.set_item("t_s", PyArray1::from_vec(py, t))?;
@@ -329,6 +330,7 @@ impl PyModel {
         d.set_item("below_seen_J", lp.prediction.below_seen_j)?;
         d.set_item("unseen_load_J", lp.prediction.unseen_load_j)?;
         d.set_item("alternative_J", lp.prediction.alternative_j)?;
+        d.set_item("stribeck_J", lp.prediction.stribeck_j)?;
         d.set_item("measured_J", lp.measured_j)?;
         d.set_item("error_pct", lp.error_pct())?;
         d.set_item("power_rmse_W", lp.rmse_w())?;

@@ -175,6 +175,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "below_seen_J": pred.below_seen_j,
                 "unseen_load_J": pred.unseen_load_j,
                 "alternative_J": pred.alternative_j,
+                "stribeck_J": pred.stribeck_j,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -272,6 +273,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "below_seen_J": pred.below_seen_j,
             "unseen_load_J": pred.unseen_load_j,
             "alternative_J": pred.alternative_j,
+            "stribeck_J": pred.stribeck_j,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {
@@ -289,8 +291,8 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
 
 /// The notes a prediction carries when its power goes below the lowest level the
 /// identification logs show the meter at, its payload is heavier than they carried, or the
-/// model of the other friction structure disagrees with it by over half the interval's
-/// standard deviation (empty otherwise).
+/// model of the other friction structure, or the whole of the drive file's Stribeck rise,
+/// differs from it by over half the interval's standard deviation (empty otherwise).
 fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     let mut note = String::new();
     if pred.below_seen_j > 0.0 {
@@ -310,6 +312,13 @@ fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
     {
         note += &format!(
             "; {e:.2} J by the model of the other friction law (with or without load-dependent gear friction; the logs do not tell them apart, the difference is in the interval)"
+        );
+    }
+    if let Some(e) = pred.stribeck_j
+        && (e - pred.energy_j).abs() > 0.5 * pred.interval_j / 1.96
+    {
+        note += &format!(
+            "; {e:.2} J with the whole of the drive file's Stribeck rise at slow joint speeds (the logs barely show it; the model takes part of it, the rest is in the interval)"
         );
     }
     note

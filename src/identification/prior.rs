@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::{DriveTerms, ParamLayout};
 use crate::error::{Error, Result};
-use crate::identification::model::PowerModel;
+use crate::identification::model::{PowerModel, Stribeck};
 use crate::model::Robot;
 use crate::model::drive::Drive;
 
@@ -118,6 +118,9 @@ pub struct Prior {
     /// what the fitted constant holds beyond it is a load the meter sees after the bus clip
     /// ([`crate::identification::model::PowerModel::bus_floor`]).
     pub standby_w: Option<f64>,
+    /// Per joint, the drive file's Stribeck law ([`Stribeck::of_drive`]); `None` where it
+    /// gives none. Empty without a drive file.
+    pub stribeck: Vec<Option<Stribeck>>,
 }
 
 /// A normal distribution of one value.
@@ -199,6 +202,9 @@ impl Prior {
         let standby_w = drive
             .map(|d| d.joints().iter().map(|j| j.standby_power).sum::<f64>())
             .filter(|w| *w > 0.0);
+        let stribeck = drive.map_or_else(Vec::new, |d| {
+            d.joints().iter().map(Stribeck::of_drive).collect()
+        });
         Ok(Prior {
             mean: base.base_values(&phi)?,
             covariance,
@@ -206,6 +212,7 @@ impl Prior {
             copper,
             gear,
             standby_w,
+            stribeck,
         })
     }
 

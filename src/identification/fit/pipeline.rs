@@ -52,7 +52,13 @@ pub fn identify_logs(
         log.check_robot(robot)?;
     }
     let layout = crate::dynamics::ParamLayout::new(robot, true, true);
-    let template = PowerModel::new(robot, layout, false)?;
+    let mut template = PowerModel::new(robot, layout, false)?;
+    // The drive file's Stribeck law, which the logs barely show: every fit takes it.
+    if let Some(prior) = opts.prior.as_ref()
+        && prior.stribeck.iter().any(Option::is_some)
+    {
+        template.stribeck = prior.stribeck.clone();
+    }
     let lag = super::lag::find_lag(robot, &template, logs, routes, opts)?;
     let prepared = logs
         .iter()

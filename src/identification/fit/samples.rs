@@ -206,6 +206,7 @@ impl Samples {
         for m in 0..states.len() {
             states.at(m, &mut q, &mut dq, &mut ddq);
             regressor(robot, ws, &model.layout, &q, &dq, &ddq, &mut w);
+            model.apply_coulomb_law(&mut w, &dq);
             let t = states.t[m];
             let delta = spans
                 .iter()
@@ -251,6 +252,7 @@ impl Samples {
         for m in 0..states.len() {
             states.at(m, &mut q, &mut dq, &mut ddq);
             regressor(robot, &mut ws, &model.layout, &q, &dq, &ddq, &mut w);
+            model.apply_coulomb_law(&mut w, &dq);
             for i in 0..n {
                 wbs.extend(model.columns.iter().map(|&c| w[(i, c)]));
             }

@@ -14,6 +14,7 @@ use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
 use crate::dynamics::{ParamLayout, Workspace, sign};
 use crate::error::{Error, Result};
+use crate::identification::tuning;
 use crate::measurement::PowerSignal;
 use crate::model::Robot;
 use crate::model::payload::PayloadEvent;
@@ -21,8 +22,10 @@ use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
 
 mod predict;
+mod stribeck;
 
 pub use predict::{EnergyPrediction, Prediction};
+pub use stribeck::Stribeck;
 
 /// The motor efficiency a user takes from a data sheet when nothing better is known: the
 /// middle of the paper's 83–92 % (Liu et al. 2018). Used to add a known payload to an
@@ -178,6 +181,15 @@ pub struct PowerModel {
         skip_serializing_if = "Option::is_none"
     )]
     pub alternative: Option<Box<PowerModel>>,
+    /// Per joint, the drive file's Stribeck law ([`Stribeck`]; `None` where it gives none):
+    /// how far the dry friction rises below the speeds the logs were fitted at, which they
+    /// barely show. The model's Coulomb friction follows it at
+    /// [`crate::identification::tuning::STRIBECK_SHARE`] of its rise, in the fit and in
+    /// predictions ([`PowerModel::coulomb_factor`]); a prediction adds the energy the whole
+    /// rise would cost beyond that to its standard deviation (`stribeck_J`). Empty: the plain
+    /// Coulomb law (no drive file, or an older file).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stribeck: Vec<Option<Stribeck>>,
 }
 
 /// Whether a model has no power lag (then left out of the file, as before there was one).
@@ -211,6 +223,7 @@ impl PowerModel {
             min_speed: None,
             power_lag_s: 0.0,
             alternative: None,
+            stribeck: Vec::new(),
         })
     }
 
@@ -256,6 +269,22 @@ impl PowerModel {
                     v.len()
                 )));
             }
+        }
+        if !(self.stribeck.is_empty() || self.stribeck.len() == n) {
+            return Err(bad(format!(
+                "stribeck has {} entries for {n} joints",
+                self.stribeck.len()
+            )));
+        }
+        if let Some(j) = self
+            .stribeck
+            .iter()
+            .position(|s| s.is_some_and(|s| !s.is_valid()))
+        {
+            return Err(bad(format!(
+                "stribeck of joint {}: rise must be finite and >= 0, speed_rad_s finite and > 0",
+                j + 1
+            )));
         }
         if !(self.gear_friction.is_empty() || self.gear_friction.len() == n) {
             return Err(bad(format!(
@@ -576,8 +605,9 @@ impl PowerModel {
             for i in 0..n {
                 unsure[i] = 0.0;
                 if let Some((c, k)) = coulomb[i] {
-                    w[(i, c)] = signs[i];
-                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]);
+                    let f = model.coulomb_factor(i, dq[i]);
+                    w[(i, c)] = signs[i] * f;
+                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]) * f * f;
                 }
             }
             for i in 0..n {
@@ -587,6 +617,21 @@ impl PowerModel {
                 dp_dtau[i] =
                     dq[i] + 2.0 * model.copper[i] * tau[i] + model.gear(i) * mech.signum() * dq[i];
             }
+            let stribeck_p = (!model.stribeck.is_empty()).then(|| {
+                (0..n)
+                    .map(|i| match (coulomb[i], model.stribeck[i]) {
+                        (Some((_, k)), Some(law)) => {
+                            // The whole rise where the model takes its share.
+                            let (f, whole) =
+                                (model.coulomb_factor(i, dq[i]), law.factor(dq[i], 1.0));
+                            let tau = tau[i] + model.theta[k] * signs[i] * (whole - f);
+                            let unsure = unsure[i] * (whole / f).powi(2);
+                            model.joint_power(tau, i, dq[i]) + model.copper[i] * unsure
+                        }
+                        _ => p[i],
+                    })
+                    .sum()
+            });
             let alternative_p = alt_models.as_ref().map(|models| {
                 let alt = in_force(models, t).0;
                 (0..n)
@@ -607,6 +652,7 @@ impl PowerModel {
                 model,
                 payload_kg,
                 alternative_p,
+                stribeck_p,
             });
         }
         Ok(())
@@ -643,6 +689,30 @@ impl PowerModel {
             self.theta[k].powi(2) * (1.0 - s * s)
         } else {
             0.0
+        }
+    }
+
+    /// The factor on joint `i`'s Coulomb friction at speed `dq` (rad/s) under the model's
+    /// law: [`crate::identification::tuning::STRIBECK_SHARE`] of the drive file's Stribeck
+    /// rise ([`PowerModel::stribeck`]); 1 without one.
+    pub fn coulomb_factor(&self, i: usize, dq: f64) -> f64 {
+        self.stribeck
+            .get(i)
+            .copied()
+            .flatten()
+            .map_or(1.0, |law| law.factor(dq, tuning::STRIBECK_SHARE))
+    }
+
+    /// Scale each joint's Coulomb column of the regressor `w` (evaluated at joint speeds `dq`,
+    /// rad/s) by [`PowerModel::coulomb_factor`]: the model's friction law in its rows.
+    pub fn apply_coulomb_law(&self, w: &mut DMatrix<f64>, dq: &[f64]) {
+        if self.stribeck.is_empty() {
+            return;
+        }
+        for (i, &v) in dq.iter().enumerate() {
+            if let Some(c) = self.layout.coulomb_col(i) {
+                w[(i, c)] *= self.coulomb_factor(i, v);
+            }
         }
     }
 
@@ -701,6 +771,9 @@ struct StateEval<'a> {
     /// Total power of the alternative model at the state (with the same payload), W; `None`
     /// when none was asked for.
     alternative_p: Option<f64>,
+    /// Total power of the model in force at the state with the whole of the drive file's
+    /// Stribeck rise ([`PowerModel::stribeck`]), W; `None` without one.
+    stribeck_p: Option<f64>,
 }
 
 /// The model in force at time `t` (s) of a list from [`PowerModel::payload_models`], with its

@@ -45,7 +45,7 @@ impl PowerModel {
         let clipped = self.signal.clipped();
         let alternative = self.alternative.as_deref();
         let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
-        let (mut unseen_load, mut alt_energy) = (0.0, 0.0);
+        let (mut unseen_load, mut alt_energy, mut stribeck_energy) = (0.0, 0.0, 0.0);
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let floor = if clipped {
             self.bus_floor.unwrap_or(0.0)
@@ -73,6 +73,9 @@ impl PowerModel {
                 // What the alternative's own `predict` integrates: its own meter's reading.
                 alt_energy += weight * alt.reading(p);
             }
+            if let Some(p) = e.stribeck_p {
+                stribeck_energy += weight * self.reading(p);
+            }
             if !(clipped && total < floor) {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
@@ -88,13 +91,16 @@ impl PowerModel {
         let active = active.max(self.structure_active * duration);
         let energy_j = if clipped { grid } else { motor };
         let alternative_j = alternative.map(|_| alt_energy);
+        let stribeck_j = (!self.stribeck.is_empty()).then_some(stribeck_energy);
         let disagreement = alternative_j.map_or(0.0, |e| energy_j - e);
+        let stribeck_rest = stribeck_j.map_or(0.0, |e| e - energy_j);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
             + (0.5 * unseen).powi(2)
             + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
-            + disagreement.powi(2))
+            + disagreement.powi(2)
+            + stribeck_rest.powi(2))
         .sqrt();
         Ok(Prediction {
             energy_j,
@@ -105,6 +111,7 @@ impl PowerModel {
             below_seen_j: unseen,
             unseen_load_j: unseen_load,
             alternative_j,
+            stribeck_j,
         })
     }
 
@@ -200,6 +207,12 @@ pub struct Prediction {
     /// deviation. `None` without an alternative.
     #[serde(rename = "alternative_J", skip_serializing_if = "Option::is_none")]
     pub alternative_j: Option<f64>,
+    /// The energy the model predicts with the whole of the drive file's Stribeck rise at slow
+    /// joint speeds ([`PowerModel::stribeck`]; the model takes
+    /// [`tuning::STRIBECK_SHARE`] of it), J: the difference is in the interval's standard
+    /// deviation. `None` without a Stribeck law.
+    #[serde(rename = "stribeck_J", skip_serializing_if = "Option::is_none")]
+    pub stribeck_j: Option<f64>,
 }
 
 /// Predicted energy of a motion.
@@ -271,5 +284,57 @@ mod tests {
         model.alternative = None;
         let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
         assert_eq!((p.alternative_j, p.interval_j), (None, 0.0));
+    }
+
+    #[test]
+    fn a_slow_joint_takes_a_share_of_the_stribeck_rise_and_the_rest_is_the_interval() {
+        use crate::identification::model::Stribeck;
+        use crate::identification::tuning::STRIBECK_SHARE;
+        let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).unwrap();
+        let mut model =
+            PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
+        for (_, kc) in model.coulomb_params().iter().flatten() {
+            model.theta[*kc] = 10.0;
+        }
+        model.constant[0] = 100.0;
+        // Joint 1 turning at its Stribeck velocity for 10 s, the others at rest.
+        let (v, rise) = (0.05, 0.4);
+        let t: Vec<f64> = (0..=100).map(|k| 0.1 * k as f64).collect();
+        let rest = [0.0, 0.2, 0.2, 0.0, 0.8, 0.0];
+        let q = (0..6)
+            .map(|j| {
+                t.iter()
+                    .map(|&t| if j == 0 { v * t } else { rest[j] })
+                    .collect()
+            })
+            .collect();
+        let dq = (0..6)
+            .map(|j| vec![if j == 0 { v } else { 0.0 }; t.len()])
+            .collect();
+        let traj = Sampled::new(t, q, Some(dq), None).unwrap();
+        let plain = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
+        assert_eq!(plain.stribeck_j, None);
+        // Friction work 10 N m x 0.05 rad/s x 10 s = 5 J at the Coulomb friction.
+        assert!(
+            (plain.energy_j - 1005.0).abs() < 1e-6,
+            "{} J",
+            plain.energy_j
+        );
+        model.stribeck = vec![Some(Stribeck { rise, speed: v }); robot.dof()];
+        let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
+        let raised = |share: f64| 1000.0 + 5.0 * (1.0 + share * rise * (-1.0f64).exp());
+        assert!(
+            (p.energy_j - raised(STRIBECK_SHARE)).abs() < 1e-6,
+            "{} J",
+            p.energy_j
+        );
+        let whole = p.stribeck_j.expect("the whole rise's energy");
+        assert!((whole - raised(1.0)).abs() < 1e-6, "{whole} J");
+        // Nothing else is uncertain in this model: the interval is the rest of the rise.
+        assert!(
+            (p.interval_j - 1.96 * (whole - p.energy_j)).abs() < 1e-6,
+            "{} J",
+            p.interval_j
+        );
     }
 }

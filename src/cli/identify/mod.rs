@@ -28,7 +28,10 @@ use powertwin::validation::holdout::{DEFAULT_EVERY, Holdout, holdout};
 use serde_json::json;
 
 use super::RobotArgs;
+
+mod report;
 use super::log::{LogArgs, load_logs};
+use report::{report_determination, report_friction, report_lowest_seen};
 
 /// Identification method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -702,32 +705,7 @@ fn write_and_report(
             100.0 * powertwin::identification::tuning::UNSEEN_LOAD_LOSS
         );
     }
-    if let Some(v) = model.min_speed {
-        eprintln!(
-            "least joint speed fitted: {v:.3} rad/s; how the friction changes below it is \
-             undetermined"
-        );
-    }
-    let with = if model.gear_friction.is_empty() {
-        "with"
-    } else {
-        "without"
-    };
-    // Only the cross-validated estimators fit the other friction structure.
-    let note = match (estimator, &model.alternative) {
-        (None, _) => None,
-        (Some(_), Some(_)) => Some(format!(
-            "the friction law is partly undetermined: predictions' intervals hold their \
-             disagreement with the same logs' model {with} load-dependent gear friction"
-        )),
-        (Some(_), None) => Some(format!(
-            "the model {with} load-dependent gear friction could not be fitted on these logs: \
-             predictions' intervals do not hold how the friction law might differ"
-        )),
-    };
-    if let Some(note) = note {
-        eprintln!("{note}");
-    }
+    report_friction(model, estimator.is_some());
     if args.json {
         let report = json!({
             "model_path": args.out,
@@ -746,54 +724,4 @@ fn write_and_report(
         println!("{}", serde_json::to_string_pretty(&report)?);
     }
     Ok(())
-}
-
-/// Print what the data determined and what would determine the rest.
-fn report_determination(d: &Determination) {
-    eprintln!(
-        "determined by the data: {} of {} directions of the base-parameter space",
-        d.directions, d.of
-    );
-    let prior = d.mostly_prior();
-    if prior.is_empty() {
-        eprintln!(
-            "every base parameter is determined by the data (posterior std <= 0.5 x prior std)"
-        );
-        return;
-    }
-    eprintln!(
-        "mostly from the prior (URDF and drive file; posterior std > 0.5 x prior std): {}",
-        prior.join(", ")
-    );
-    if let Some(advice) = d.advice() {
-        eprintln!("to determine them: {advice}; the intervals carry the prior's width meanwhile");
-    }
-}
-
-/// Print the lowest level the logs show a clipped meter at, the floor under its reading
-/// (`floor_w`, W: [`PowerModel::bus_floor`], `None` without the drive file's standby), and how to see it lower when it stays above zero by more than the fit's residual
-/// (`residual_w`, W).
-fn report_lowest_seen(low: f64, floor_w: Option<f64>, residual_w: f64) {
-    eprintln!(
-        "lowest power the logs show the meter at: {low:.1} W; below it what the meter reads is \
-         undetermined (a cabinet load after the bus clip would hold it up): predictions' \
-         intervals hold half the energy spent below it"
-    );
-    match floor_w {
-        Some(f) => eprintln!(
-            "floor under the meter's reading: {f:.1} W (where the logs brake down to it, what \
-             they read there, else the fitted standby less the drive file's): predictions read \
-             the power no lower"
-        ),
-        None => eprintln!(
-            "floor under the meter's reading: 0 W (the drive file gives no standby power to \
-             tell a cabinet load after the bus clip from the drives' own)"
-        ),
-    }
-    if low > 2.0 * residual_w {
-        eprintln!(
-            "to determine it: add a run that brakes hard enough for the meter to reach 0 W \
-             (fast stops carrying a load)"
-        );
-    }
 }
