@@ -583,6 +583,15 @@ fn an_unloaded_identification_keeps_the_copper_loss_a_payload_adds() {
         u.predict(&with).alternative_j,
         Some(u.predict(alt).energy_j)
     );
+    // Both carry the nominal drive file's Stribeck law (the drawn truth has its own), and a
+    // prediction reports the energy with its whole rise, above the model's half.
+    assert_eq!(with.stribeck, prior.stribeck);
+    assert_eq!(alt.stribeck, prior.stribeck);
+    let p = u.predict(&with);
+    assert!(
+        p.stribeck_j.expect("the whole rise's energy") > p.energy_j,
+        "{p:?}"
+    );
     let without = identify(Prior {
         copper: vec![None; u.robot.dof()],
         ..prior
