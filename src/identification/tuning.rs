@@ -57,8 +57,8 @@ pub const MAX_POWER_LAG_S: f64 = 0.1;
 /// 0.75 gave 93.0 % (0.64) and 1 gave 94.0 % with a median |z| of 0.53, below the 0.55 a
 /// calibrated interval has
 /// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data). Re-checked
-/// with the Stribeck law in the model on five family seeds: lower floors lost a robot to
-/// 67-71 % on the two seeds that did not choose
+/// with the Stribeck law in the model on five family seeds: lower floors left a robot below
+/// the lowest-robot target on the two seeds that did not choose
 /// (docs/experiments.md#the-structure-errors-floor-re-chosen-and-kept).
 pub const STRUCTURE_ACTIVE_FLOOR: f64 = 0.75;
 

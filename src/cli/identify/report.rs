@@ -10,13 +10,14 @@ use powertwin::identification::prior::Determination;
 pub(super) fn report_friction(model: &PowerModel, cross_validated: bool) {
     use powertwin::identification::tuning::STRIBECK_SHARE;
     if let Some(v) = model.min_speed {
-        let stribeck = match model.stribeck.iter().any(Option::is_some) {
-            true => format!(
+        let stribeck = if model.stribeck.iter().any(Option::is_some) {
+            format!(
                 ": the model takes {} % of the drive file's Stribeck rise there, predictions' \
                  intervals the rest",
                 100.0 * STRIBECK_SHARE
-            ),
-            false => String::new(),
+            )
+        } else {
+            String::new()
         };
         eprintln!(
             "least joint speed fitted: {v:.3} rad/s; how the friction changes below it is \

@@ -595,7 +595,7 @@ impl PowerModel {
         let mut w = DMatrix::zeros(n, self.layout.len());
         let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let (mut p, mut signs, mut unsure) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut tau, mut dp_dtau) = (vec![0.0; n], vec![0.0; n]);
+        let (mut tau, mut dp_dtau, mut factor) = (vec![0.0; n], vec![0.0; n], vec![1.0; n]);
         let coulomb = self.coulomb_params();
         for &t in t {
             let (model, payload_kg) = in_force(&models, t);
@@ -604,10 +604,10 @@ impl PowerModel {
             regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
             for i in 0..n {
                 unsure[i] = 0.0;
+                factor[i] = model.coulomb_factor(i, dq[i]);
                 if let Some((c, k)) = coulomb[i] {
-                    let f = model.coulomb_factor(i, dq[i]);
-                    w[(i, c)] = signs[i] * f;
-                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]) * f * f;
+                    w[(i, c)] = signs[i] * factor[i];
+                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]) * factor[i] * factor[i];
                 }
             }
             for i in 0..n {
@@ -622,8 +622,7 @@ impl PowerModel {
                     .map(|i| match (coulomb[i], model.stribeck[i]) {
                         (Some((_, k)), Some(law)) => {
                             // The whole rise where the model takes its share.
-                            let (f, whole) =
-                                (model.coulomb_factor(i, dq[i]), law.factor(dq[i], 1.0));
+                            let (f, whole) = (factor[i], law.factor(dq[i], 1.0));
                             let tau = tau[i] + model.theta[k] * signs[i] * (whole - f);
                             let unsure = unsure[i] * (whole / f).powi(2);
                             model.joint_power(tau, i, dq[i]) + model.copper[i] * unsure
