@@ -268,12 +268,13 @@ fn scenario_energy_is_sweeps_prediction() {
 /// The 30 held-out plans of the IRB 1200's benchmark, each written as the plan CSV `excite`
 /// writes (1 kHz, every column) and priced as `predict --trajectory` prices it, give
 /// `validate`'s "from the plan" energies (`PowerModel::predict` on the commanded trajectory at
-/// the twin's 1 ms step) to 1e-5 (validate prints errors to 0.001 %) and their 95 % intervals
-/// to 3e-3, relative (resampling a linear move's IK path moves its energy by about 2e-6; a
-/// joint coming to rest between the CSV's samples switches its Coulomb gradient, and its gear
-/// friction `|tau dq|` in the other friction structure's energy, at a slightly different
-/// time; the interval holds the difference of the two structures' energies, and 3e-3 of it
-/// is a few hundred-thousandths of the energy).
+/// the twin's 1 ms step) to 5e-5 (0.005 %; validate prints errors to 0.001 %) and their 95 %
+/// intervals to 3e-3, relative. Resampling a linear move's IK path moves its energy by about
+/// 2e-6; a joint coming to rest between the CSV's samples switches its Coulomb gradient, and
+/// its gear friction `|tau dq|` in the other friction structure's energy, at a slightly
+/// different time: that structure's energy moves by up to about 4e-5, and the prediction is
+/// the mean of the two structures'. The interval holds half their difference, and 3e-3 of it
+/// is a few hundred-thousandths of the energy.
 #[test]
 fn heldout_plans_from_csv_are_priced_as_validate_prices_them() {
     use powertwin::identification::plan::{price, read_plan};
@@ -302,7 +303,7 @@ fn heldout_plans_from_csv_are_priced_as_validate_prices_them() {
         let (a, b) = (&priced.prediction, &validate);
         let rel = |x: f64, y: f64| (x - y).abs() / y.abs().max(1e-9);
         assert!(
-            rel(a.energy_j, b.energy_j) < 1e-5 && rel(a.interval_j, b.interval_j) < 3e-3,
+            rel(a.energy_j, b.energy_j) < 5e-5 && rel(a.interval_j, b.interval_j) < 3e-3,
             "motion {} ({}): plan CSV {} +- {} J, validate {} +- {} J",
             k + 1,
             m.kind,

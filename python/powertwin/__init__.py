@@ -261,7 +261,7 @@ class Prediction:
     clipped meter below its lowest seen level; a payload heavier than they carried), as
     `predict --json` gives them; `alternative_J` (J, None without one) what the model of the
     other friction law (with load-dependent gear friction if this one has none, without it if
-    it has) predicts; `stribeck_J` (J, None without a Stribeck law) what it predicts with the
+    it has) predicts (`energy_J` is the mean of the model's own and this); `stribeck_J` (J, None without a Stribeck law) what it predicts with the
     whole of the drive file's Stribeck rise at slow joint speeds (the model takes part of it).
     The interval includes them."""
 

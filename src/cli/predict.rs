@@ -311,7 +311,8 @@ fn unseen(pred: &powertwin::identification::model::Prediction) -> String {
         && (pred.energy_j - e).abs() > 0.5 * pred.interval_j / 1.96
     {
         note += &format!(
-            "; {e:.2} J by the model of the other friction law (with or without load-dependent gear friction; the logs do not tell them apart, the difference is in the interval)"
+            "; the mean of {:.2} J and {e:.2} J, the models with and without load-dependent gear friction (the logs do not tell them apart; half the difference is in the interval)",
+            2.0 * pred.energy_j - e
         );
     }
     if let Some(e) = pred.stribeck_j

@@ -32,8 +32,9 @@ pub(super) fn report_friction(model: &PowerModel, cross_validated: bool) {
     match (cross_validated, &model.alternative) {
         (false, _) => {}
         (true, Some(_)) => eprintln!(
-            "the friction law is partly undetermined: predictions' intervals hold their \
-             disagreement with the same logs' model {with} load-dependent gear friction"
+            "the friction law is partly undetermined: predictions take the mean of this model \
+             and the same logs' model {with} load-dependent gear friction, with half their \
+             difference in the interval"
         ),
         (true, None) => eprintln!(
             "the model {with} load-dependent gear friction could not be fitted on these logs: \

@@ -175,8 +175,8 @@ pub struct Selection {
     pub consistent: Option<crate::identification::consistent::Consistent>,
     /// The other friction structure fitted on all samples: [`Estimator::Gear`] when the
     /// chosen estimator has no gear friction, [`Estimator::Pmsm`] when it has (`None` when it
-    /// cannot be fitted). Its predictions' disagreement with the chosen model's widens the
-    /// intervals ([`PowerModel::alternative`]).
+    /// cannot be fitted). Predictions take the mean of its power and the chosen model's, and
+    /// half their difference in the intervals ([`PowerModel::alternative`]).
     pub alternative: Option<(Estimator, Fit)>,
     /// Whether each motor's logged power was fitted besides the arm's.
     pub motor_power: bool,

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::dynamics::base_params::{BaseParams, SamplingOptions};
 use crate::dynamics::regressor::regressor;
-use crate::dynamics::{ParamLayout, Workspace, sign};
+use crate::dynamics::{ParamLayout, Workspace};
 use crate::error::{Error, Result};
 use crate::identification::tuning;
 use crate::measurement::PowerSignal;
@@ -22,9 +22,11 @@ use crate::model::payload::{Payload, attach};
 use crate::trajectory::Trajectory;
 
 mod predict;
+mod states;
 mod stribeck;
 
 pub use predict::{EnergyPrediction, Prediction};
+use states::StateEval;
 pub use stribeck::Stribeck;
 
 /// The motor efficiency a user takes from a data sheet when nothing better is known: the
@@ -172,8 +174,9 @@ pub struct PowerModel {
     /// when it has. The excitations show how large the friction is where they move, not its
     /// law where other motions go (how it grows with the transmitted torque and differs with
     /// the direction of the power flow, which periodic motions that return to their start
-    /// barely weigh): a prediction adds the two models' disagreement on the motion to its
-    /// standard deviation (`alternative_J`). `None`: the other structure could not be fitted,
+    /// barely weigh), so the two are taken as equally likely: a prediction's power is the
+    /// mean of the two models' and half their difference on the motion is in its standard
+    /// deviation (`alternative_J`). `None`: the other structure could not be fitted,
     /// or an older file. Read from `without_gear` in files of earlier versions.
     #[serde(
         default,
@@ -533,7 +536,7 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<f64>> {
         let mut total = Vec::with_capacity(t.len());
-        self.each_state(robot, traj, events, efficiency, t, None, |e| {
+        self.each_state(robot, traj, events, efficiency, t, |e| {
             total.push(e.p.iter().fold(0.0, |s, pi| s + pi));
         })?;
         Ok(total)
@@ -552,143 +555,12 @@ impl PowerModel {
         t: &[f64],
     ) -> Result<Vec<Vec<f64>>> {
         let mut joints = vec![Vec::with_capacity(t.len()); robot.dof()];
-        self.each_state(robot, traj, events, efficiency, t, None, |e| {
+        self.each_state(robot, traj, events, efficiency, t, |e| {
             for (series, pi) in joints.iter_mut().zip(e.p) {
                 series.push(*pi);
             }
         })?;
         Ok(joints)
-    }
-
-    /// Call `f` with each state's evaluation at the times `t`, with the payload model in
-    /// force then, and the total power of `alternative` (a model with the same base
-    /// parameters, [`PowerModel::alternative`]) at the same state. The Coulomb friction takes
-    /// the trajectory's expected signs ([`Trajectory::coulomb_signs`]; for a motion estimated
-    /// from a log, weighed down where a joint is not seen to move), and an unsure sign adds
-    /// its variance to the copper loss.
-    #[allow(clippy::too_many_arguments)]
-    fn each_state(
-        &self,
-        robot: &Robot,
-        traj: &dyn Trajectory,
-        events: &[PayloadEvent],
-        efficiency: f64,
-        t: &[f64],
-        alternative: Option<&PowerModel>,
-        mut f: impl FnMut(&StateEval),
-    ) -> Result<()> {
-        self.check_robot(robot)?;
-        if alternative.is_some_and(|alt| alt.columns != self.columns) {
-            return Err(Error::InvalidInput(
-                "the alternative model's base parameters are not this model's".into(),
-            ));
-        }
-        let base = (!events.is_empty())
-            .then(|| self.base_params(robot))
-            .transpose()?;
-        let models = self.payload_models(robot, events, efficiency, base.as_ref())?;
-        let alt_models = alternative
-            .map(|alt| alt.payload_models(robot, events, efficiency, base.as_ref()))
-            .transpose()?;
-        let n = robot.dof();
-        let mut ws = Workspace::new(robot);
-        let mut w = DMatrix::zeros(n, self.layout.len());
-        let (mut q, mut dq, mut ddq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut p, mut signs, mut unsure) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut tau, mut dp_dtau, mut factor) = (vec![0.0; n], vec![0.0; n], vec![1.0; n]);
-        let coulomb = self.coulomb_params();
-        for &t in t {
-            let (model, payload_kg) = in_force(&models, t);
-            traj.sample(t, &mut q, &mut dq, &mut ddq);
-            traj.coulomb_signs(t, &dq, &mut signs);
-            regressor(robot, &mut ws, &self.layout, &q, &dq, &ddq, &mut w);
-            for i in 0..n {
-                unsure[i] = 0.0;
-                factor[i] = model.coulomb_factor(i, dq[i]);
-                if let Some((c, k)) = coulomb[i] {
-                    w[(i, c)] = signs[i] * factor[i];
-                    unsure[i] = model.unsure_sign(k, signs[i], dq[i]) * factor[i] * factor[i];
-                }
-            }
-            for i in 0..n {
-                tau[i] = model.torque(&w, i);
-                p[i] = model.joint_power(tau[i], i, dq[i]) + model.copper[i] * unsure[i];
-                let mech = dq[i] * tau[i];
-                dp_dtau[i] =
-                    dq[i] + 2.0 * model.copper[i] * tau[i] + model.gear(i) * mech.signum() * dq[i];
-            }
-            let stribeck_p = (!model.stribeck.is_empty()).then(|| {
-                (0..n)
-                    .map(|i| match (coulomb[i], model.stribeck[i]) {
-                        (Some((_, k)), Some(law)) => {
-                            // The whole rise where the model takes its share.
-                            let (f, whole) = (factor[i], law.factor(dq[i], 1.0));
-                            let tau = tau[i] + model.theta[k] * signs[i] * (whole - f);
-                            let unsure = unsure[i] * (whole / f).powi(2);
-                            model.joint_power(tau, i, dq[i]) + model.copper[i] * unsure
-                        }
-                        _ => p[i],
-                    })
-                    .sum()
-            });
-            let alternative_p = alt_models.as_ref().map(|models| {
-                let alt = in_force(models, t).0;
-                (0..n)
-                    .map(|i| {
-                        let extra =
-                            coulomb[i].map_or(0.0, |(_, k)| alt.unsure_sign(k, signs[i], dq[i]));
-                        alt.joint_power(alt.torque(&w, i), i, dq[i]) + alt.copper[i] * extra
-                    })
-                    .sum()
-            });
-            f(&StateEval {
-                p: &p,
-                tau: &tau,
-                dp_dtau: &dp_dtau,
-                w: &w,
-                dq: &dq,
-                unsure: &unsure,
-                model,
-                payload_kg,
-                alternative_p,
-                stribeck_p,
-            });
-        }
-        Ok(())
-    }
-
-    /// This model carrying the payloads of `events`, each from its time on (this model before
-    /// the first), with each payload's mass, kg; `base` the base-parameter set (needed only
-    /// with events).
-    fn payload_models(
-        &self,
-        robot: &Robot,
-        events: &[PayloadEvent],
-        efficiency: f64,
-        base: Option<&BaseParams>,
-    ) -> Result<Vec<(f64, PowerModel, f64)>> {
-        let mut models = vec![(f64::NEG_INFINITY, self.clone(), 0.0)];
-        for e in events {
-            let model = match (&e.payload, base) {
-                (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
-                _ => self.clone(),
-            };
-            let mass = e.payload.as_ref().map_or(0.0, |p| p.inertia.mass);
-            models.push((e.t_s, model, mass));
-        }
-        Ok(models)
-    }
-
-    /// A moving joint's expected squared torque beyond its expected torque squared for a
-    /// Coulomb sign `s` in (-1, 1) the motion is unsure of (N^2 m^2): the expected torque has
-    /// `fc s`, and its expected square is `fc^2 (1 - s^2)` more. `k`: the Coulomb
-    /// parameter's index in `theta`; 0 at rest.
-    fn unsure_sign(&self, k: usize, s: f64, dq: f64) -> f64 {
-        if sign(dq) != 0.0 {
-            self.theta[k].powi(2) * (1.0 - s * s)
-        } else {
-            0.0
-        }
     }
 
     /// The factor on joint `i`'s Coulomb friction at speed `dq` (rad/s) under the model's
@@ -744,43 +616,4 @@ impl PowerModel {
         }
         (acc[0] + acc[1]) + (acc[2] + acc[3]) + rest
     }
-}
-
-/// One state evaluated by [`PowerModel::each_state`].
-struct StateEval<'a> {
-    /// Predicted power of each motor, W.
-    p: &'a [f64],
-    /// Each motor's torque under the model in force (N m, or N m / eta when
-    /// efficiency-scaled).
-    tau: &'a [f64],
-    /// Each motor's `d p / d tau` (rad/s): the speed, the copper loss's `2 c tau` and the
-    /// gear friction's `g sign(dq tau) dq`.
-    dp_dtau: &'a [f64],
-    /// Each motor's expected squared torque beyond its expected torque squared (N^2 m^2):
-    /// `fc^2 (1 - s^2)` for a Coulomb sign `s` the motion is unsure of.
-    unsure: &'a [f64],
-    /// Full regressor at the state.
-    w: &'a DMatrix<f64>,
-    /// Joint speeds, rad/s.
-    dq: &'a [f64],
-    /// The model in force (with the payload then attached).
-    model: &'a PowerModel,
-    /// Mass of the payload then attached, kg (0 without one).
-    payload_kg: f64,
-    /// Total power of the alternative model at the state (with the same payload), W; `None`
-    /// when none was asked for.
-    alternative_p: Option<f64>,
-    /// Total power of the model in force at the state with the whole of the drive file's
-    /// Stribeck rise ([`PowerModel::stribeck`]), W; `None` without one.
-    stribeck_p: Option<f64>,
-}
-
-/// The model in force at time `t` (s) of a list from [`PowerModel::payload_models`], with its
-/// payload's mass, kg.
-fn in_force(models: &[(f64, PowerModel, f64)], t: f64) -> (&PowerModel, f64) {
-    models
-        .iter()
-        .rev()
-        .find(|(from, _, _)| *from <= t)
-        .map_or((&models[0].1, 0.0), |(_, m, kg)| (m, *kg))
 }

@@ -23,8 +23,10 @@ impl PowerModel {
     /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
     /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
     /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus
-    /// its disagreement with the model of the other friction structure
-    /// ([`PowerModel::alternative`], `alternative_J`). `dt`: integration step, s.
+    /// half its difference from the model of the other friction structure
+    /// ([`PowerModel::alternative`], `alternative_J`). Where the model has that alternative,
+    /// the energy is the mean of the two structures' (their power averaged state by state).
+    /// `dt`: integration step, s.
     pub fn predict(
         &self,
         robot: &Robot,
@@ -56,7 +58,7 @@ impl PowerModel {
         let mut g = vec![0.0; np];
         let coulomb = self.coulomb_params();
         let mut k = 0usize;
-        self.each_state(robot, traj, events, efficiency, &t, alternative, |e| {
+        self.each_state(robot, traj, events, efficiency, &t, |e| {
             let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
             k += 1;
             let total: f64 = e.p.iter().sum();
@@ -174,7 +176,8 @@ impl PowerModel {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Prediction {
     /// Predicted energy of the modelled signal (the motor sum, or the DC bus / grid power
-    /// clipped at its floor, [`PowerModel::reading`]), J.
+    /// clipped at its floor, [`PowerModel::reading`]), J: the mean of the two friction
+    /// structures' where the model has an alternative.
     #[serde(rename = "energy_J")]
     pub energy_j: f64,
     /// Half-width of the 95 % interval of `energy_j`, J.
@@ -203,8 +206,9 @@ pub struct Prediction {
     pub unseen_load_j: f64,
     /// The energy the model of the other friction structure predicts (with load-dependent
     /// gear friction if this model has none, without it if it has;
-    /// [`PowerModel::alternative`]), J: the difference is in the interval's standard
-    /// deviation. `None` without an alternative.
+    /// [`PowerModel::alternative`]), J: `energy_J` is the mean of it and the model's own,
+    /// and half their difference is in the interval's standard deviation. `None` without an
+    /// alternative.
     #[serde(rename = "alternative_J", skip_serializing_if = "Option::is_none")]
     pub alternative_j: Option<f64>,
     /// The energy the model predicts with the whole of the drive file's Stribeck rise at slow
@@ -236,7 +240,8 @@ mod tests {
     use crate::trajectory::sampled::Sampled;
 
     #[test]
-    fn the_other_friction_structure_s_disagreement_is_the_interval() {
+    fn a_model_predicts_the_mean_of_its_two_friction_structures_and_half_their_difference_is_the_interval()
+     {
         let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).unwrap();
         let mut model =
             PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();
@@ -266,20 +271,31 @@ mod tests {
         let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
         let other = alt.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
         // Standby 1000 J and friction work 10 N m x 0.5 rad/s x 10 s = 50 J; the gear loses
-        // 5 % of that besides.
-        assert!((p.energy_j - 1050.0).abs() < 1e-6, "{} J", p.energy_j);
+        // 5 % of that besides. The model predicts the mean of the two.
+        assert!((p.energy_j - 1051.25).abs() < 1e-6, "{} J", p.energy_j);
         assert!(
             (other.energy_j - 1052.5).abs() < 1e-6,
             "{} J",
             other.energy_j
         );
         assert_eq!(p.alternative_j, Some(other.energy_j));
-        // Nothing else is uncertain in this model: the interval is the disagreement.
+        // Nothing else is uncertain in this model: the interval is half the two structures'
+        // difference (the standard deviation of an even mixture of the two).
         assert!(
-            (p.interval_j - 1.96 * 2.5).abs() < 1e-6,
+            (p.interval_j - 1.96 * 1.25).abs() < 1e-6,
             "{} J",
             p.interval_j
         );
+        // Its power, motor by motor, is the mean too.
+        let times = [0.0, 5.0];
+        let mean = model
+            .power_with_payloads(&robot, &traj, &[], 1.0, &times)
+            .unwrap();
+        let gear = alt
+            .power_with_payloads(&robot, &traj, &[], 1.0, &times)
+            .unwrap();
+        assert!((mean[1] - 105.125).abs() < 1e-9, "{} W", mean[1]);
+        assert!((gear[1] - 105.25).abs() < 1e-9, "{} W", gear[1]);
         // Without an alternative there is no such term.
         model.alternative = None;
         let p = model.predict(&robot, &traj, &[], 1.0, 0.01).unwrap();
