@@ -38,8 +38,8 @@ pub(super) struct Projection<'a> {
     /// `|r|^2`.
     pub(super) cost: f64,
     /// This iteration's linearisation: the triangular factor `R` of the Jacobian of the
-    /// residual in `z` (`J = Q R`) and `-Q^T r`, so that each damped trial solves a `2q x q`
-    /// system rather than the whole `(n_theta + 2q) x q` one.
+    /// residual in `z` (`J = Q R`) and `-Q^T r`, so that each damped trial rotates only the
+    /// damping's `q` rows into `R` ([`lm::damped_triangular_solve`]).
     pub(super) jac_r: DMatrix<f64>,
     /// `-Q^T r` of this iteration.
     pub(super) jac_qtr: DVector<f64>,
@@ -103,22 +103,9 @@ impl lm::Problem for Projection<'_> {
     }
 
     fn trial(&mut self, mu: f64) -> Option<(ProjectionTrial, f64)> {
-        // min |J s + r|^2 + mu |D s|^2 = min |[R; sqrt(mu) D] s - [-Q^T r; 0]|^2, solved by
-        // the QR of the stacked `2q x q` matrix (full column rank for mu > 0).
-        let q = self.unknowns();
-        let mut a = DMatrix::zeros(2 * q, q);
-        a.rows_mut(0, q).copy_from(&self.jac_r);
-        for (c, u) in self.unit.iter().enumerate() {
-            a[(q + c, c)] = mu.sqrt() * u;
-        }
-        let mut b = DVector::zeros(2 * q);
-        b.rows_mut(0, q).copy_from(&self.jac_qtr);
-        let qr = a.qr();
-        qr.q_tr_mul(&mut b);
-        let mut step = qr.r().solve_upper_triangular(&b.rows(0, q))?;
-        if step.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
+        // min |J s + r|^2 + mu |D s|^2 = min |R s - (-Q^T r)|^2 + |sqrt(mu) D s|^2.
+        let damping: Vec<f64> = self.unit.iter().map(|u| mu.sqrt() * u).collect();
+        let mut step = lm::damped_triangular_solve(&self.jac_r, &self.jac_qtr, &damping)?;
         // At most one natural unit per coordinate and step: a factor e on the log-Cholesky
         // diagonal, L on its other entries.
         lm::cap_step(&mut step, self.unit, MAX_STEP);

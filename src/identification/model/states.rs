@@ -188,9 +188,11 @@ impl PowerModel {
 
 /// One state's joint quantities in [`PowerModel::each_state`], one entry per joint.
 struct Joints {
-    /// Positions (rad), speeds (rad/s), accelerations (rad/s^2).
+    /// Positions, rad.
     q: Vec<f64>,
+    /// Speeds, rad/s.
     dq: Vec<f64>,
+    /// Accelerations, rad/s^2.
     ddq: Vec<f64>,
     /// Expected Coulomb signs.
     signs: Vec<f64>,
