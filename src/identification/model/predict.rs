@@ -82,6 +82,10 @@ impl PowerModel {
                 self.add_power_gradient(e, &coulomb, weight, &mut g);
             }
         })?;
+        // The chosen structure's parameter variance, taken whole where the prediction is the
+        // mean of the two structures: both were fitted on the same logs, so their parameter
+        // errors move together and the mean's variance is about either's (the chosen one's
+        // gradient halved would leave out the other's half).
         let param_var = if self.covariance.len() == np * np {
             let cov = DMatrix::from_row_slice(np, np, &self.covariance);
             let g = nalgebra::DVector::from_column_slice(&g);
@@ -240,8 +244,7 @@ mod tests {
     use crate::trajectory::sampled::Sampled;
 
     #[test]
-    fn a_model_predicts_the_mean_of_its_two_friction_structures_and_half_their_difference_is_the_interval()
-     {
+    fn the_prediction_is_the_mean_of_the_two_friction_structures() {
         let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default()).unwrap();
         let mut model =
             PowerModel::new(&robot, ParamLayout::new(&robot, true, true), false).unwrap();

@@ -15,7 +15,7 @@ use crate::trajectory::Trajectory;
 
 impl PowerModel {
     /// Call `f` with each state's evaluation at the times `t`, with the payload model in
-    /// force then. Where the model has an [`PowerModel::alternative`] (the other friction
+    /// force then. Where the model has a [`PowerModel::alternative`] (the other friction
     /// structure, fitted on the same logs), each motor's predicted power is the mean of the
     /// two structures': the logs do not tell them apart, so each is taken as likely as the
     /// other. The Coulomb friction takes the trajectory's expected signs
