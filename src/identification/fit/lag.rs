@@ -83,10 +83,7 @@ pub(super) fn find_lag(
     }
     let step = 2.0 * max / (GRID - 1) as f64;
     let grid: Vec<f64> = (0..GRID).map(|k| -max + k as f64 * step).collect();
-    let costs = grid
-        .iter()
-        .map(|&l| trials.cost(l))
-        .collect::<Result<Vec<_>>>()?;
+    let costs = trials.costs(&grid)?;
     let k = (0..GRID)
         .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
         .unwrap_or(GRID / 2);
@@ -158,6 +155,7 @@ impl Trials<'_> {
         let bracket = [grid[k - 1], grid[k], grid[k + 1]];
         let every = (std::mem::take(&mut self.tried), self.rows, self.with_prior);
         if self.refer_to(grid[k]).is_ok()
+            && self.costs(&bracket).is_ok()
             && let Ok(Some(lag)) = refine(bracket, &mut |l| self.cost(l))
         {
             return Ok(Some(lag));
@@ -172,12 +170,43 @@ impl Trials<'_> {
         if let Some(&(_, c)) = self.tried.iter().find(|(l, _)| *l == lag) {
             return Ok(c);
         }
-        let c = self.fit(lag)?;
-        self.tried.push((lag, c));
-        Ok(c)
+        let fitted = self.fit(lag)?;
+        Ok(self.record(lag, fitted))
     }
 
-    fn fit(&mut self, lag: f64) -> Result<f64> {
+    /// [`Trials::cost`] of each of `lags`, in order. The first lag not yet fitted is fitted
+    /// first (it decides whether the fits need the prior, as in a sequential search), the
+    /// others side by side; each is recorded in order, so the search is the sequential one.
+    fn costs(&mut self, lags: &[f64]) -> Result<Vec<f64>> {
+        use rayon::prelude::*;
+        let untried = |t: &Trials, l: &f64| !t.tried.iter().any(|(k, _)| k == l);
+        if let Some(&first) = lags.iter().find(|l| untried(self, l)) {
+            self.cost(first)?;
+        }
+        let rest: Vec<f64> = lags.iter().copied().filter(|l| untried(self, l)).collect();
+        let this = &*self;
+        let fits = rest
+            .par_iter()
+            .map(|&l| this.fit(l))
+            .collect::<Result<Vec<_>>>()?;
+        for (l, fitted) in rest.into_iter().zip(fits) {
+            self.record(l, fitted);
+        }
+        lags.iter().map(|&l| self.cost(l)).collect()
+    }
+
+    /// Record the fit of `lag` ([`Trials::fit`]); returns its cost.
+    fn record(&mut self, lag: f64, (c, rows, with_prior): (f64, usize, bool)) -> f64 {
+        self.rows = rows;
+        self.with_prior = with_prior;
+        self.tried.push((lag, c));
+        c
+    }
+
+    /// The PMSM fit at `lag`: its residual RMS (W), the observations it used, and whether it
+    /// took the prior (the first fit on `keep` takes it only where the logs cannot be fitted
+    /// without it; the later fits follow that first one).
+    fn fit(&self, lag: f64) -> Result<(f64, usize, bool)> {
         let prepared = self.prepare(lag)?;
         let mut samples = Samples::new(
             self.robot,
@@ -202,21 +231,17 @@ impl Trials<'_> {
         // truths, docs/experiments.md#the-drive-files-copper-as-a-prior).
         if !self.with_prior {
             match (fitted(&samples), &self.opts.prior) {
-                (Ok(c), _) => {
-                    self.rows = rows;
-                    return Ok(c);
-                }
-                (Err(_), Some(_)) if self.rows == 0 => self.with_prior = true,
+                (Ok(c), _) => return Ok((c, rows, false)),
+                (Err(_), Some(_)) if self.rows == 0 => {}
                 (Err(e), _) => return Err(e),
             }
         }
-        // `with_prior` is set only when there is a prior.
+        // Here only with a prior: already taken, or needed by the first fit.
         let c = match &self.opts.prior {
             Some(prior) => fitted(&samples.with_prior(prior.clone())?)?,
             None => f64::INFINITY,
         };
-        self.rows = rows;
-        Ok(c)
+        Ok((c, rows, true))
     }
 }
 
