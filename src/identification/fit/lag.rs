@@ -12,9 +12,9 @@
 //! arm's power only, every copper coefficient free) fitted on the pooled samples; the lag
 //! with the least residual wins: a grid of [`GRID`] points over `+-max` on every sample,
 //! then at most [`REFINE`] vertices of the parabola through the best so far and its
-//! neighbours, on the samples that move ([`find_lag`]; each trial lag fitted once). The linear
-//! estimator without copper loss would not do: with loads its residual is dominated by the
-//! copper loss it lacks and the lag it finds is a
+//! neighbours, on the samples that move ([`find_lag`]; each trial lag fitted once, the grid's
+//! and the bracket's side by side). The linear estimator without copper loss would not do:
+//! with loads its residual is dominated by the copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
 use super::estimate::fit_free;
