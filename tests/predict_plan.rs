@@ -272,8 +272,8 @@ fn scenario_energy_is_sweeps_prediction() {
 /// intervals to 3e-3, relative. Resampling a linear move's IK path moves its energy by about
 /// 2e-6; a joint coming to rest between the CSV's samples switches its Coulomb gradient, and
 /// its gear friction `|tau dq|` in the other friction structure's energy, at a slightly
-/// different time: that structure's energy moves by up to about 4e-5, and the prediction is
-/// the mean of the two structures'. The interval holds half their difference, and 3e-3 of it
+/// different time: that structure's energy moves more than the plan's own resampling does,
+/// and the prediction is the mean of the two structures'. The interval holds half their difference, and 3e-3 of it
 /// is a few hundred-thousandths of the energy.
 #[test]
 fn heldout_plans_from_csv_are_priced_as_validate_prices_them() {

@@ -297,8 +297,8 @@ mod tests {
 
     #[test]
     fn the_damped_triangular_solve_is_the_stacked_least_squares_step() {
-        // A 5 x 5 upper-triangular R, some diagonal damping (one zero), against the QR of
-        // the stacked system [R; D].
+        // A 5 x 5 upper-triangular R, some diagonal damping (one zero), against the
+        // least-squares solution of the stacked system [R; D] by SVD.
         let q = 5;
         let r = DMatrix::from_fn(q, q, |i, j| {
             if j >= i {
