@@ -345,6 +345,22 @@ fn runs_and_measurements_are_deterministic() {
     .unwrap();
     let window: f64 = a.p_total[400..500].iter().sum::<f64>() / 100.0;
     assert!((avg.p_total[5] - window).abs() < 1e-12);
+    // An averaging meter 20 ms late: its first period's window reaches back before the
+    // recording, where the robot stood at its first state (row 0), and it stays a period's
+    // mean (it does not fall back to an instantaneous reading).
+    let late = measure(
+        &a,
+        &SensorSettings {
+            noise: NoiseSettings::NONE,
+            power_averaging: true,
+            power_lag_s: 0.02,
+            ..s
+        },
+    )
+    .unwrap();
+    let first = (20.0 * a.p_total[0] + a.p_total[0..80].iter().sum::<f64>()) / 100.0;
+    assert!((late.p_total[1] - first).abs() < 1e-12);
+    assert_eq!(late.p_total[0], a.p_total[0]);
     // A perturbed nominal model still tracks, with a larger error than the exact one.
     let exact = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
     let (_, r_exact) = exact.run(&traj, &[], &[]).unwrap();

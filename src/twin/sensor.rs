@@ -12,7 +12,8 @@
 //! the sample time `t_k` (the mean of the two physics steps around it, a second-order
 //! estimate centred on `t_k`), as RobotStudio's signal analyser does, or averaged over the
 //! sample period `[t_k - T, t_k)` when `power_averaging` is on (an integrating power meter;
-//! window energies are then exact). A meter on its own clock may log the power `power_lag_s`
+//! window energies are then exact; before the recording the robot stood at its first state,
+//! so a window reaching back before `t = 0` holds row 0's power there). A meter on its own clock may log the power `power_lag_s`
 //! late, and the logger may stamp each sample up to `stamp_jitter_s` off its sampling
 //! instant (both 0 by default). Noise and jitter are seeded, so a seed reproduces a dataset
 //! bit for bit.
@@ -184,14 +185,21 @@ impl SensorSettings {
     }
 }
 
-/// Truth rows whose power a sample logs at row `at` (the sample's row, or its lag earlier):
-/// the two steps around it, or the `stride` steps before it when averaging; row 0 alone at
-/// the start.
-fn power_window(at: usize, stride: usize, averaging: bool, rows: usize) -> std::ops::Range<usize> {
+/// The power a sample logs at row `at` (the sample's row, or its lag earlier) from the truth
+/// rows `p`: the mean of the two steps around it, or, when averaging, of the `stride` steps
+/// before it; row 0 alone at the start. An averaging meter's window that reaches back before
+/// the recording sees the robot held at its first state, so row 0 stands for those steps.
+fn logged_power(p: &[f64], at: usize, stride: usize, averaging: bool) -> f64 {
     match (averaging, at) {
-        (_, 0) => 0..1,
-        (true, _) if at >= stride => at - stride..at,
-        _ => at - 1..(at + 1).min(rows),
+        (_, 0) => p[0],
+        (true, _) => {
+            let before = stride.saturating_sub(at) as f64;
+            (before * p[0] + p[at.saturating_sub(stride)..at].iter().sum::<f64>()) / stride as f64
+        }
+        _ => {
+            let w = &p[at - 1..(at + 1).min(p.len())];
+            w.iter().sum::<f64>() / w.len() as f64
+        }
     }
 }
 
@@ -215,15 +223,14 @@ pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
             t = (t + rng.random_range(-s.stamp_jitter_s..=s.stamp_jitter_s)).max(0.0);
         }
         m.t.push(t);
-        let window = power_window(k.saturating_sub(lag), stride, s.power_averaging, rec.len());
-        let len = window.len() as f64;
+        let at = k.saturating_sub(lag);
         for i in 0..n {
             let mut q = rec.q[i][k];
             if noise.encoder_resolution_rad > 0.0 {
                 q = (q / noise.encoder_resolution_rad).round() * noise.encoder_resolution_rad;
             }
             m.q[i].push(q + noise.encoder_sigma_rad * gauss(&mut rng));
-            let p = rec.p_elec[i][window.clone()].iter().sum::<f64>() / len;
+            let p = logged_power(&rec.p_elec[i], at, stride, s.power_averaging);
             m.p_joint[i].push(p + noise.joint_power_sigma_w * gauss(&mut rng));
         }
         let signal = if s.power_signal.clipped() {
@@ -231,7 +238,7 @@ pub fn measure(rec: &Recording, s: &SensorSettings) -> Result<Measured> {
         } else {
             &rec.p_total
         };
-        let p = signal[window].iter().sum::<f64>() / len;
+        let p = logged_power(signal, at, stride, s.power_averaging);
         m.p_total
             .push(p + noise.power_offset_w + noise.power_sigma_w * gauss(&mut rng));
     }
