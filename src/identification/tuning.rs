@@ -47,21 +47,6 @@ pub const MOTOR_POWER: bool = true;
 /// there (docs/experiments.md#power-lag-in-the-fit).
 pub const MAX_POWER_LAG_S: f64 = 0.1;
 
-/// Fraction of the cross-validation pieces' mean active power below which a prediction's
-/// relative structure error is not scaled down further: a motion less active than that takes
-/// the relative part at this activity. The pieces of one identification set have much the same
-/// activity, so they cannot tell a constant error from a proportional one, and on the family of
-/// truths the slow linear moves (a fifth of the pieces' activity) missed by as many watts as the
-/// pieces did. Why 0.75: pooled over 16 family robots (two family seeds, 2 x 12 held-out motions
-/// each; without the meter's lowest-level term), 0.5 left 90.6 % coverage (median |z| 0.76),
-/// 0.75 gave 93.0 % (0.64) and 1 gave 94.0 % with a median |z| of 0.53, below the 0.55 a
-/// calibrated interval has
-/// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data). Re-checked
-/// with the Stribeck law in the model on five family seeds: lower floors left a robot below
-/// the lowest-robot target on the two seeds that did not choose
-/// (docs/experiments.md#the-structure-errors-floor-re-chosen-and-kept).
-pub const STRUCTURE_ACTIVE_FLOOR: f64 = 0.75;
-
 /// Fraction of the mechanical energy a payload heavier than the identification logs carried
 /// moves through the joints (for the part of its mass beyond theirs) that a prediction takes
 /// as one standard deviation more. Losses that grow with the transmitted torque (a harmonic

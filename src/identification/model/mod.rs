@@ -112,11 +112,11 @@ pub struct PowerModel {
     #[serde(default)]
     pub structure_rel: f64,
     /// Least mean active power at which a prediction takes the relative part of its structure
-    /// error, W: [`crate::identification::tuning::STRUCTURE_ACTIVE_FLOOR`] of the
-    /// cross-validation pieces' mean active power `|P - P0|`. The pieces cannot tell a constant
-    /// error from a proportional one below the activity they cover, and held-out motions less
-    /// active than them miss by as many watts
-    /// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data).
+    /// error, W: the cross-validation pieces' mean active power `|P - P0|`. The pieces cannot
+    /// tell a constant error from a proportional one below the activity they cover, so a
+    /// motion less active than them takes the watts they missed by
+    /// (docs/experiments.md#intervals-for-motions-unlike-the-identification-data,
+    /// docs/experiments.md#the-mean-of-the-two-structures-cross-validated).
     #[serde(default, rename = "structure_active_W")]
     pub structure_active: f64,
     /// For a clipped signal (DC bus, grid): the lowest power the identification logs
