@@ -15,8 +15,8 @@
 //! window energies are then exact; before the recording the robot stood at its first state,
 //! so a window reaching back before `t = 0` holds row 0's power there). A meter on its own
 //! clock may log the power `power_lag_s` late, and the logger may stamp each sample up to
-//! `stamp_jitter_s` off its sampling instant (both 0 by default). Noise and jitter are seeded, so a seed reproduces a dataset
-//! bit for bit.
+//! `stamp_jitter_s` off its sampling instant (both 0 by default). Noise and jitter are
+//! seeded, so a seed reproduces a dataset bit for bit.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
