@@ -62,9 +62,10 @@ fn fit_inner(
         .filter(|&m| s.fit[m] && use_sample(m))
         .collect();
     // Each round's Levenberg–Marquardt starts from the round before (the weights move the
-    // least cost a little); the first from the linear solution. From the linear solution
-    // every round, a bus signal's fit (the clip makes its cost kinked) crawls tens of
-    // iterations back to where the last round ended.
+    // least cost a little) and solves no linear problem ([`warm_fit`]); the first starts
+    // from the linear solution. From the linear solution every round, a bus signal's fit
+    // (the clip makes its cost kinked) crawls tens of iterations back to where the last
+    // round ended.
     let run = |zero_loss: &[bool], start: Option<&[f64]>| -> Result<Fit> {
         let mut weights = vec![1.0; rows.len()];
         let rounds = if weighting == Weighting::None {
@@ -202,7 +203,69 @@ fn fit_weighted(
     start: Start,
     statistics: bool,
 ) -> Result<Fit> {
-    let zero_loss = start.zero_loss;
+    let (estimate, covariance, z) = match start.z {
+        Some(z0) if estimator != Estimator::Total => {
+            let free = free_params(s, estimator, start.zero_loss);
+            warm_fit(template, s, rows, weights, (&free, z0), statistics)?
+        }
+        _ => cold_fit(
+            template,
+            s,
+            estimator,
+            rows,
+            weights,
+            start.zero_loss,
+            statistics,
+        )?,
+    };
+    let model = fitted_model(template, s, estimator, &z, &covariance);
+    // The residual in W (unweighted) of the arm's power over the fitted samples.
+    let arm: Vec<usize> = rows
+        .iter()
+        .copied()
+        .filter(|&m| s.motor[m].is_none())
+        .collect();
+    let residual_rms = (arm
+        .iter()
+        .map(|&m| (s.power(m, &z, None) - s.y[m]).powi(2))
+        .sum::<f64>()
+        / arm.len().max(1) as f64)
+        .sqrt();
+    Ok(Fit {
+        model,
+        estimate: Estimate {
+            values: z.as_slice().to_vec(),
+            residual_rms,
+            ..estimate
+        },
+        covariance,
+        layout: s.layout(),
+    })
+}
+
+/// The parameters a nonlinear `estimator` moves: all but the loss coefficients held at zero
+/// (`zero_loss`) and those it does not fit.
+fn free_params(s: &Samples, estimator: Estimator, zero_loss: &[bool]) -> Vec<bool> {
+    let layout = s.layout();
+    (0..layout.len())
+        .map(|k| match layout.param(k) {
+            Param::Copper(_) => !zero_loss[k],
+            Param::Gear(_) => estimator.fits_gear() && !zero_loss[k],
+            _ => true,
+        })
+        .collect()
+}
+
+/// [`fit_weighted`] from the linear solution: its estimate, covariance and parameters `z`.
+fn cold_fit(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    rows: &[usize],
+    weights: &[f64],
+    zero_loss: &[bool],
+    statistics: bool,
+) -> Result<(Estimate, DMatrix<f64>, DVector<f64>)> {
     let np = s.params();
     let LinearDesign { lin, to_z, a, y } = linear_design(s, rows, weights);
     let layout = s.layout();
@@ -244,20 +307,7 @@ fn fit_weighted(
             (est, cov)
         }
         Estimator::Pmsm | Estimator::Gear => {
-            // Everything but the loss coefficients held at zero and those the estimator
-            // does not fit.
-            let free: Vec<bool> = (0..np)
-                .map(|k| match layout.param(k) {
-                    Param::Copper(_) => !zero_loss[k],
-                    Param::Gear(_) => estimator.fits_gear() && !zero_loss[k],
-                    _ => true,
-                })
-                .collect();
-            if let Some(start) = start.z {
-                for k in 0..np {
-                    z[k] = if free[k] { start[k] } else { 0.0 };
-                }
-            }
+            let free = free_params(s, estimator, zero_loss);
             let prior = posterior_mode(s, rows, weights, &free, prior, &mut z)?;
             if statistics {
                 lm_statistics(template, s, rows, weights, Some(&free), prior, &z)?
@@ -266,29 +316,49 @@ fn fit_weighted(
             }
         }
     };
-    let model = fitted_model(template, s, estimator, &z, &covariance);
-    // The residual in W (unweighted) of the arm's power over the fitted samples.
-    let arm: Vec<usize> = rows
-        .iter()
-        .copied()
-        .filter(|&m| s.motor[m].is_none())
-        .collect();
-    let residual_rms = (arm
-        .iter()
-        .map(|&m| (s.power(m, &z, None) - s.y[m]).powi(2))
-        .sum::<f64>()
-        / arm.len().max(1) as f64)
-        .sqrt();
-    Ok(Fit {
-        model,
-        estimate: Estimate {
-            values: z.as_slice().to_vec(),
-            residual_rms,
-            ..estimate
-        },
-        covariance,
-        layout,
-    })
+    Ok((estimate, covariance, z))
+}
+
+/// [`fit_weighted`] of a nonlinear estimator from `z0`, the round before's parameters
+/// (`free` marks those that move; the others start and stay at zero): its estimate,
+/// covariance and parameters. No linear solution, which the start would replace; with a
+/// prior, one Levenberg–Marquardt weighed by the power model's residual variance at `z0`
+/// under these weights ([`posterior_mode`]'s second fit, from a start already at the power
+/// model's least cost). Without `statistics` the estimate holds no statistics (empty
+/// standard deviations, condition number 0).
+fn warm_fit(
+    template: &PowerModel,
+    s: &Samples,
+    rows: &[usize],
+    weights: &[f64],
+    (free, z0): (&[bool], &[f64]),
+    statistics: bool,
+) -> Result<(Estimate, DMatrix<f64>, DVector<f64>)> {
+    let np = s.params();
+    let mut z = DVector::from_fn(np, |k, _| if free[k] { z0[k] } else { 0.0 });
+    let z_prior = s.z_prior();
+    let moved = free.iter().filter(|f| **f).count();
+    let prior = z_prior
+        .as_ref()
+        .map(|pr| (pr, residual_variance(s, rows, weights, &z, moved)));
+    levenberg_marquardt(s, rows, weights, Some(free), prior, &mut z)?;
+    if statistics {
+        let (est, cov) = lm_statistics(template, s, rows, weights, Some(free), prior, &z)?;
+        return Ok((est, cov, z));
+    }
+    let layout = s.layout();
+    let est = Estimate {
+        names: layout.names(&template.names),
+        values: z.as_slice().to_vec(),
+        std: Vec::new(),
+        rel_std: Vec::new(),
+        cond: 0.0,
+        residual_rms: 0.0,
+        rows: rows.len(),
+        covariance: DMatrix::zeros(np, np),
+        params: (0..np).map(|k| layout.param(k)).collect(),
+    };
+    Ok((est, DMatrix::zeros(np, np), z))
 }
 
 /// The model of `estimator`'s parameters `z` (with their `covariance`) on the samples `s`:
