@@ -122,8 +122,8 @@ fn fit_inner(
     Ok(held)
 }
 
-/// The linear problem without copper loss and gear friction on the samples `rows` (weights `weights`):
-/// `y - dq . tau_known = (dq^T W_b) theta + P0` for the arm, `y - dq_i tau_known,i =
+/// The linear problem without copper loss and gear friction on the samples `rows` (weights
+/// `weights`): `y - dq . tau_known = (dq^T W_b) theta + P0` for the arm, `y - dq_i tau_known,i =
 /// (dq_i W_b,i) theta + P0_i` for motor `i`, rows times the square roots of the weights, the
 /// arm's samples that may sit on the floor left out.
 fn linear_design(s: &Samples, rows: &[usize], weights: &[f64]) -> LinearDesign {
