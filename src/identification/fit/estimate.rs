@@ -323,9 +323,9 @@ fn cold_fit(
 /// (`free` marks those that move; the others start and stay at zero): its estimate,
 /// covariance and parameters. No linear solution, which the start would replace; with a
 /// prior, one Levenberg–Marquardt weighed by the power model's residual variance at `z0`
-/// under these weights ([`posterior_mode`]'s second fit, from a start already at the power
-/// model's least cost). Without `statistics` the estimate holds no statistics (empty
-/// standard deviations, condition number 0).
+/// under these weights ([`posterior_mode`]'s second fit, from a start that is already the
+/// power model's posterior mode under the round before's weights). Without `statistics` the
+/// estimate holds no statistics (empty standard deviations, condition number 0).
 fn warm_fit(
     template: &PowerModel,
     s: &Samples,
