@@ -42,6 +42,27 @@ pub struct Estimate {
 
 /// Solve `a x = y` in the least-squares sense. `names` label the columns.
 pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Estimate> {
+    let norms = checked_norms(a, y, names)?;
+    let (r, qty) = reduce(a, Some(y));
+    let qty = qty.unwrap_or_else(|| y.clone());
+    reduced_solution(a, y, names, &norms, (&r, &qty))
+}
+
+/// [`solve`] from `A`'s reduction `(R, Q^T y)` by [`reduce`], computed once where the
+/// covariance needs `R` too.
+pub(crate) fn solve_reduced(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    reduced: (&DMatrix<f64>, &DVector<f64>),
+) -> Result<Estimate> {
+    let norms = checked_norms(a, y, names)?;
+    reduced_solution(a, y, names, &norms, reduced)
+}
+
+/// The column norms of `a` after checking the problem: shapes, more rows than columns,
+/// finite values, no zero column (named).
+fn checked_norms(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Vec<f64>> {
     let (m, p) = a.shape();
     if names.len() != p || y.len() != m {
         return Err(Error::InvalidInput(format!(
@@ -74,10 +95,20 @@ pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Est
             unidentifiable: format!("{} (not excited at all)", zero.join(", ")),
         });
     }
-    // A = Q R: the p x p factor has A's singular values and right singular vectors, and
-    // (Q^T y)[..p] the same least-squares solution, at a fraction of an SVD of all rows.
-    let (r, qty) = reduce(a, Some(y));
-    let qty = qty.unwrap_or_else(|| y.clone());
+    Ok(norms)
+}
+
+/// [`solve`] after its checks, from `A`'s reduction `(R, Q^T y)`: the p x p factor has A's
+/// singular values and right singular vectors, and `(Q^T y)[..p]` the same least-squares
+/// solution, at a fraction of an SVD of all rows.
+fn reduced_solution(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    norms: &[f64],
+    (r, qty): (&DMatrix<f64>, &DVector<f64>),
+) -> Result<Estimate> {
+    let (m, p) = a.shape();
     let scaled = DMatrix::from_fn(r.nrows(), p, |i, c| r[(i, c)] / norms[c]);
     let svd = scaled.clone().svd(true, true);
     let smax = svd.singular_values.max();
@@ -175,6 +206,32 @@ pub fn solve_with_prior(
     names: &[String],
     prior: &ColumnPrior,
 ) -> Result<(Estimate, f64)> {
+    check_with_prior(a, y, names, prior)?;
+    let (r, qty) = reduce(a, Some(y));
+    let qty = qty.unwrap_or_else(|| y.clone());
+    reduced_posterior(a, y, names, prior, (&r, &qty))
+}
+
+/// [`solve_with_prior`] from `A`'s reduction `(R, Q^T y)` by [`reduce`], computed once where
+/// the covariance needs `R` too.
+pub(crate) fn solve_with_prior_reduced(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    prior: &ColumnPrior,
+    reduced: (&DMatrix<f64>, &DVector<f64>),
+) -> Result<(Estimate, f64)> {
+    check_with_prior(a, y, names, prior)?;
+    reduced_posterior(a, y, names, prior, reduced)
+}
+
+/// [`solve_with_prior`]'s checks: shapes and finite values.
+fn check_with_prior(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    prior: &ColumnPrior,
+) -> Result<()> {
     let (m, p) = a.shape();
     if names.len() != p || y.len() != m || prior.root.ncols() != p || prior.mean.len() != p {
         return Err(Error::InvalidInput(format!(
@@ -189,9 +246,19 @@ pub fn solve_with_prior(
             "regressor or observations contain NaN or infinite values".into(),
         ));
     }
-    let (r, qty) = reduce(a, Some(y));
-    let qty = qty.unwrap_or_else(|| y.clone());
-    let (cond, rank, s2) = data_noise(a, y, &r, &qty)?;
+    Ok(())
+}
+
+/// [`solve_with_prior`] after its checks, from `A`'s reduction `(R, Q^T y)`.
+fn reduced_posterior(
+    a: &DMatrix<f64>,
+    y: &DVector<f64>,
+    names: &[String],
+    prior: &ColumnPrior,
+    (r, qty): (&DMatrix<f64>, &DVector<f64>),
+) -> Result<(Estimate, f64)> {
+    let (m, p) = a.shape();
+    let (cond, rank, s2) = data_noise(a, y, r, qty)?;
     // The stacked system [R; s root] x = [Q^T y; s root mean] has the posterior's normal
     // equations (|A x - y|^2 = |R x - Q^T y|^2 + const).
     let s = s2.sqrt();

@@ -33,8 +33,11 @@ use crate::identification::lsq::ColumnPrior;
 /// residuals that is the posterior covariance `(A^T A / s^2 + P)^-1`; without a prior, the
 /// sandwich above. The degrees of freedom use the effective number of parameters
 /// `tr(B A^T A)`.
+///
+/// `rf` is `A`'s triangular factor by [`reduce`](crate::identification::lsq::reduce)
+/// (shared with the estimate's own solution).
 pub(super) fn covariance(
-    a: &DMatrix<f64>,
+    (a, rf): (&DMatrix<f64>, &DMatrix<f64>),
     r: &DVector<f64>,
     series: &[usize],
     at: &[Instant],
@@ -45,7 +48,6 @@ pub(super) fn covariance(
     debug_assert_eq!((series.len(), at.len()), (m, m));
     // The triangular factor has A's singular values and right singular vectors; the prior's
     // rows `s root` below it make the factor of `A^T A + s^2 P`.
-    let (rf, _) = crate::identification::lsq::reduce(a, None);
     let stacked = match prior {
         Some((pr, s2)) => {
             let k = pr.root.nrows();
@@ -171,6 +173,7 @@ fn hac_lag(r: &DVector<f64>, log: &[usize]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identification::lsq::reduce;
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use rand_distr::StandardNormal;
@@ -220,8 +223,11 @@ mod tests {
             }
             let x = a.clone().svd(true, true).solve(&e, 0.0).unwrap();
             let r = &e - &a * &x;
-            hac += covariance(&a, &r, &log, &at, None).unwrap()[(0, 0)] / draws as f64;
-            plain += covariance(&a, &r, &unrelated, &apart, None).unwrap()[(0, 0)] / draws as f64;
+            hac += covariance((&a, &reduce(&a, None).0), &r, &log, &at, None).unwrap()[(0, 0)]
+                / draws as f64;
+            plain += covariance((&a, &reduce(&a, None).0), &r, &unrelated, &apart, None).unwrap()
+                [(0, 0)]
+                / draws as f64;
             est.push(x[0]);
         }
         let spread = sample_variance(&est);
@@ -265,9 +271,12 @@ mod tests {
             });
             let x = a.clone().svd(true, true).solve(&e, 0.0).unwrap();
             let r = &e - &a * &x;
-            together += covariance(&a, &r, &series, &shared, None).unwrap()[(1, 1)] / draws as f64;
-            independent +=
-                covariance(&a, &r, &series, &apart, None).unwrap()[(1, 1)] / draws as f64;
+            together += covariance((&a, &reduce(&a, None).0), &r, &series, &shared, None).unwrap()
+                [(1, 1)]
+                / draws as f64;
+            independent += covariance((&a, &reduce(&a, None).0), &r, &series, &apart, None)
+                .unwrap()[(1, 1)]
+                / draws as f64;
             est.push(x[1]);
         }
         let spread = sample_variance(&est);

@@ -4,12 +4,15 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::covariance::covariance;
 use super::floor::Floor;
 use super::nonlinear::{levenberg_marquardt, lm_statistics, residual_variance};
 use super::weighting::variance_weights;
-use super::{Estimator, Fit, Param, Weighting, covariance::covariance, samples::Samples};
+use super::{Estimator, Fit, Param, Weighting, samples::Samples};
 use crate::error::Result;
-use crate::identification::lsq::{ColumnPrior, Estimate, solve, solve_with_prior};
+use crate::identification::lsq::{
+    ColumnPrior, Estimate, reduce, solve_reduced, solve_with_prior_reduced,
+};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning;
 
@@ -274,9 +277,12 @@ fn cold_fit(
     // With a prior, the posterior: the data decide what they determine, the prior the rest;
     // `s2` is the weighted rows' noise variance that weighs the prior against them.
     let z_prior = s.z_prior();
+    // One reduction of the design for the solution and (the linear estimator's) covariance.
+    let (rf, qty) = reduce(&a, Some(&y));
+    let qty = qty.unwrap_or_else(|| y.clone());
     let (mut est, s2) = match &z_prior {
-        Some(pr) => solve_with_prior(&a, &y, &names_lin, &pr.columns(&to_z))?,
-        None => (solve(&a, &y, &names_lin)?, 0.0),
+        Some(pr) => solve_with_prior_reduced(&a, &y, &names_lin, &pr.columns(&to_z), (&rf, &qty))?,
+        None => (solve_reduced(&a, &y, &names_lin, (&rf, &qty))?, 0.0),
     };
     let prior = z_prior.as_ref().map(|pr| (pr, s2));
     est.params = to_z.iter().map(|&k| layout.param(k)).collect();
@@ -292,7 +298,7 @@ fn cold_fit(
             let at: Vec<_> = lin.iter().map(|&(m, _)| s.instant(m)).collect();
             let lin_prior = prior.map(|(pr, s2)| (pr.columns(&to_z), s2));
             let cov_lin = covariance(
-                &a,
+                (&a, &rf),
                 &(&y - &a * x),
                 &series,
                 &at,

@@ -7,7 +7,9 @@ use rayon::prelude::*;
 use super::covariance::covariance;
 use super::samples::{Instant, Samples};
 use crate::error::Result;
-use crate::identification::lsq::{ColumnPrior, Estimate, solve, solve_with_prior};
+use crate::identification::lsq::{
+    ColumnPrior, Estimate, reduce, solve_reduced, solve_with_prior_reduced,
+};
 use crate::identification::model::PowerModel;
 use crate::identification::tuning::CONVERGED_CHI2;
 use crate::numerics::lm;
@@ -264,15 +266,18 @@ pub(super) fn lm_statistics(
     let y = &jac * DVector::from_iterator(moved.len(), moved.iter().map(|&k| z[k])) - &r;
     let moved_names: Vec<String> = moved.iter().map(|&k| names[k].clone()).collect();
     let moved_prior = prior.map(|(pr, s2)| (pr.columns(&moved), s2));
+    // One reduction of the linearisation for the estimate and its covariance.
+    let (rf, qty) = reduce(&jac, Some(&y));
+    let qty = qty.unwrap_or_else(|| y.clone());
     let mut est = match &moved_prior {
-        Some((pr, _)) => solve_with_prior(&jac, &y, &moved_names, pr)?.0,
-        None => solve(&jac, &y, &moved_names)?,
+        Some((pr, _)) => solve_with_prior_reduced(&jac, &y, &moved_names, pr, (&rf, &qty))?.0,
+        None => solve_reduced(&jac, &y, &moved_names, (&rf, &qty))?,
     };
     est.params = moved.iter().map(|&k| layout.param(k)).collect();
     let series: Vec<usize> = rows.iter().map(|&m| s.series[m]).collect();
     let at: Vec<Instant> = rows.iter().map(|&m| s.instant(m)).collect();
     let moved_cov = covariance(
-        &jac,
+        (&jac, &rf),
         &r,
         &series,
         &at,
