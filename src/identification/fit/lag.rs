@@ -10,10 +10,11 @@
 //! For each trial lag the logs are prepared with the states that much earlier
 //! ([`crate::identification::data::prepare_lagged`]) and the PMSM estimator (unweighted, the
 //! arm's power only, every copper coefficient free) fitted on the pooled samples; the lag
-//! with the least residual wins: a grid of [`GRID`] points over `+-max` on every sample,
-//! then at most [`REFINE`] vertices of the parabola through the best so far and its
-//! neighbours, on the samples that move ([`find_lag`]; each trial lag fitted once, the grid's
-//! and the bracket's side by side). The linear estimator without copper loss would not do:
+//! with the least residual wins: a walk down a grid of [`GRID`] points over `+-max` on every
+//! sample, from lag 0 to the grid's least residual, then at most [`REFINE`] vertices of the
+//! parabola through the best so far and its neighbours, on the samples that move
+//! ([`find_lag`]; each trial lag fitted once, a grid point's neighbours and the bracket side
+//! by side). The linear estimator without copper loss would not do:
 //! with loads its residual is dominated by the copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
@@ -44,7 +45,8 @@ const LAG_EVIDENCE: f64 = 6.63;
 /// fits best, searched within `+-opts.max_power_lag_s`; 0 when the search is off, when the
 /// logs do not fit at all, or when the data cannot tell the lag from none.
 ///
-/// The coarse grid fits every sample at every trial lag. The refinement and the evidence fit
+/// The coarse grid fits every sample at the trial lags its downhill walk from lag 0 reaches
+/// (`Trials::downhill`). The refinement and the evidence fit
 /// every trial lag on the same samples: those at which every excited joint moves at
 /// `opts.min_speed` or faster in the states at the grid's best lag (every sample again where
 /// those do not bracket a least residual). Around a velocity reversal the model's Coulomb
@@ -83,10 +85,7 @@ pub(super) fn find_lag(
     }
     let step = 2.0 * max / (GRID - 1) as f64;
     let grid: Vec<f64> = (0..GRID).map(|k| -max + k as f64 * step).collect();
-    let costs = trials.costs(&grid)?;
-    let k = (0..GRID)
-        .min_by(|&a, &b| costs[a].total_cmp(&costs[b]))
-        .unwrap_or(GRID / 2);
+    let k = trials.downhill(&grid)?;
     // A least cost on the range's edge brackets no minimum: the residual falls on past the
     // range (a lag beyond it) or is flat and its least value the fits' scatter (a slow,
     // averaged log whose power hardly depends on the lag). Either way no lag in the range
@@ -166,6 +165,27 @@ impl Trials<'_> {
     }
 
     /// Residual RMS (W) of the PMSM fit at `lag` (s).
+    /// The grid point of a least cost, found by walking downhill from the middle (lag 0)
+    /// to the lower neighbour until neither neighbour is lower; each point's neighbours
+    /// fitted side by side. Where the cost over the grid has one minimum (a lag the data
+    /// show) that is the grid's least cost, without fitting the far lags, whose fits are
+    /// the slowest (a misfit that large converges in tens of iterations).
+    fn downhill(&mut self, grid: &[f64]) -> Result<usize> {
+        let mut k = grid.len() / 2;
+        loop {
+            let around = &grid[k.saturating_sub(1)..(k + 2).min(grid.len())];
+            let costs = self.costs(around)?;
+            let here = self.cost(grid[k])?;
+            let lower = (0..around.len())
+                .filter(|&i| costs[i] < here)
+                .min_by(|&a, &b| costs[a].total_cmp(&costs[b]));
+            match lower {
+                Some(i) => k = k + i - usize::from(k > 0),
+                None => return Ok(k),
+            }
+        }
+    }
+
     fn cost(&mut self, lag: f64) -> Result<f64> {
         if let Some(&(_, c)) = self.tried.iter().find(|(l, _)| *l == lag) {
             return Ok(c);
