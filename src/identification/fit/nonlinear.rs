@@ -98,6 +98,8 @@ pub(super) fn levenberg_marquardt(
         cost,
         jtj: DMatrix::zeros(np, np),
         g: DVector::zeros(np),
+        trial_r: DVector::zeros(rows.len()),
+        trial_jac_t: DMatrix::zeros(np, rows.len()),
     };
     lm::minimise(
         &mut problem,
@@ -183,6 +185,10 @@ struct PowerFit<'a> {
     jtj: DMatrix<f64>,
     /// `J^T r` with the held parameters' entries zero.
     g: DVector<f64>,
+    /// The last trial's weighted residuals and transposed Jacobian: evaluated with its cost,
+    /// they become `r` and `jac_t` when it is accepted (one pass over the samples per trial).
+    trial_r: DVector<f64>,
+    trial_jac_t: DMatrix<f64>,
 }
 
 impl lm::Problem for PowerFit<'_> {
@@ -228,14 +234,16 @@ impl lm::Problem for PowerFit<'_> {
         for k in s.layout().losses() {
             trial[k] = trial[k].max(0.0);
         }
-        let c = weighted_residuals(s, self.rows, &self.sw, &trial, None).norm_squared()
-            + self.prior.as_ref().map_or(0.0, |p| p.cost(&trial));
+        self.trial_r =
+            weighted_residuals(s, self.rows, &self.sw, &trial, Some(&mut self.trial_jac_t));
+        let c = self.trial_r.norm_squared() + self.prior.as_ref().map_or(0.0, |p| p.cost(&trial));
         Some((trial, c))
     }
 
     fn accept(&mut self, trial: DVector<f64>, cost: f64) {
         *self.z = trial;
-        self.r = weighted_residuals(self.s, self.rows, &self.sw, self.z, Some(&mut self.jac_t));
+        std::mem::swap(&mut self.r, &mut self.trial_r);
+        std::mem::swap(&mut self.jac_t, &mut self.trial_jac_t);
         self.cost = cost;
     }
 }
