@@ -43,12 +43,11 @@ pub struct Estimate {
 /// Solve `a x = y` in the least-squares sense. `names` label the columns.
 pub fn solve(a: &DMatrix<f64>, y: &DVector<f64>, names: &[String]) -> Result<Estimate> {
     let norms = checked_norms(a, y, names)?;
-    let (r, qty) = reduce(a, Some(y));
-    let qty = qty.unwrap_or_else(|| y.clone());
+    let (r, qty) = reduce_system(a, y);
     reduced_solution(a, y, names, &norms, (&r, &qty))
 }
 
-/// [`solve`] from `A`'s reduction `(R, Q^T y)` by [`reduce`], computed once where the
+/// [`solve`] from `A`'s reduction `(R, Q^T y)` by [`reduce_system`], computed once where the
 /// covariance needs `R` too.
 pub(crate) fn solve_reduced(
     a: &DMatrix<f64>,
@@ -207,12 +206,11 @@ pub fn solve_with_prior(
     prior: &ColumnPrior,
 ) -> Result<(Estimate, f64)> {
     check_with_prior(a, y, names, prior)?;
-    let (r, qty) = reduce(a, Some(y));
-    let qty = qty.unwrap_or_else(|| y.clone());
+    let (r, qty) = reduce_system(a, y);
     reduced_posterior(a, y, names, prior, (&r, &qty))
 }
 
-/// [`solve_with_prior`] from `A`'s reduction `(R, Q^T y)` by [`reduce`], computed once where
+/// [`solve_with_prior`] from `A`'s reduction `(R, Q^T y)` by [`reduce_system`], computed once where
 /// the covariance needs `R` too.
 pub(crate) fn solve_with_prior_reduced(
     a: &DMatrix<f64>,
@@ -449,6 +447,13 @@ pub(crate) fn reduce(
     };
     let qty = y.map(|_| r.view((0, p), (p, 1)).column(0).into_owned());
     (r.view((0, 0), (p, p)).into_owned(), qty)
+}
+
+/// [`reduce`] of the system `a x = y`: `R` and `Q^T y` (`y` itself for a matrix with no more
+/// rows than columns), the reduction [`solve_reduced`] and [`solve_with_prior_reduced`] take.
+pub(crate) fn reduce_system(a: &DMatrix<f64>, y: &DVector<f64>) -> (DMatrix<f64>, DVector<f64>) {
+    let (r, qty) = reduce(a, Some(y));
+    (r, qty.unwrap_or_else(|| y.clone()))
 }
 
 /// Relative standard deviations `std / |value|` (infinite for a value of 0).

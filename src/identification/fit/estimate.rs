@@ -11,7 +11,7 @@ use super::weighting::variance_weights;
 use super::{Estimator, Fit, Param, Weighting, samples::Samples};
 use crate::error::Result;
 use crate::identification::lsq::{
-    ColumnPrior, Estimate, reduce, solve_reduced, solve_with_prior_reduced,
+    ColumnPrior, Estimate, reduce_system, solve_reduced, solve_with_prior_reduced,
 };
 use crate::identification::model::PowerModel;
 use crate::identification::tuning;
@@ -278,8 +278,7 @@ fn cold_fit(
     // `s2` is the weighted rows' noise variance that weighs the prior against them.
     let z_prior = s.z_prior();
     // One reduction of the design for the solution and (the linear estimator's) covariance.
-    let (rf, qty) = reduce(&a, Some(&y));
-    let qty = qty.unwrap_or_else(|| y.clone());
+    let (rf, qty) = reduce_system(&a, &y);
     let (mut est, s2) = match &z_prior {
         Some(pr) => solve_with_prior_reduced(&a, &y, &names_lin, &pr.columns(&to_z), (&rf, &qty))?,
         None => (solve_reduced(&a, &y, &names_lin, (&rf, &qty))?, 0.0),

@@ -164,7 +164,6 @@ impl Trials<'_> {
         refine(bracket, &mut |l| self.cost(l))
     }
 
-    /// Residual RMS (W) of the PMSM fit at `lag` (s).
     /// The grid point of a least cost, found by walking downhill from the middle (lag 0)
     /// to the lower neighbour until neither neighbour is lower; each point's neighbours
     /// fitted side by side. Where the cost over the grid has one minimum (a lag the data
@@ -186,6 +185,7 @@ impl Trials<'_> {
         }
     }
 
+    /// Residual RMS (W) of the PMSM fit at `lag` (s).
     fn cost(&mut self, lag: f64) -> Result<f64> {
         if let Some(&(_, c)) = self.tried.iter().find(|(l, _)| *l == lag) {
             return Ok(c);

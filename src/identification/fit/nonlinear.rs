@@ -8,7 +8,7 @@ use super::covariance::covariance;
 use super::samples::{Instant, Samples};
 use crate::error::Result;
 use crate::identification::lsq::{
-    ColumnPrior, Estimate, reduce, solve_reduced, solve_with_prior_reduced,
+    ColumnPrior, Estimate, reduce_system, solve_reduced, solve_with_prior_reduced,
 };
 use crate::identification::model::PowerModel;
 use crate::identification::tuning::CONVERGED_CHI2;
@@ -275,8 +275,7 @@ pub(super) fn lm_statistics(
     let moved_names: Vec<String> = moved.iter().map(|&k| names[k].clone()).collect();
     let moved_prior = prior.map(|(pr, s2)| (pr.columns(&moved), s2));
     // One reduction of the linearisation for the estimate and its covariance.
-    let (rf, qty) = reduce(&jac, Some(&y));
-    let qty = qty.unwrap_or_else(|| y.clone());
+    let (rf, qty) = reduce_system(&jac, &y);
     let mut est = match &moved_prior {
         Some((pr, _)) => solve_with_prior_reduced(&jac, &y, &moved_names, pr, (&rf, &qty))?.0,
         None => solve_reduced(&jac, &y, &moved_names, (&rf, &qty))?,
