@@ -118,8 +118,10 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("twin_1s_at_1ms");
     group.sample_size(20);
     for substeps in [1, 2, 3, 4, 6, 8] {
+        // The step rate alone: no settling before the run.
         let cfg = TwinConfig {
             physics: PhysicsSettings { dt: 1e-3, substeps },
+            settle_s: 0.0,
             ..TwinConfig::default()
         };
         eprintln!(

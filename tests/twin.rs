@@ -376,6 +376,17 @@ fn bad_inputs_are_errors() {
     let mut cfg = TwinConfig::default();
     cfg.physics.dt = 0.0;
     assert!(Twin::new(&robot, &drive, cfg).is_err());
+    let e = Twin::new(
+        &robot,
+        &drive,
+        TwinConfig {
+            settle_s: -1.0,
+            ..TwinConfig::default()
+        },
+    )
+    .err()
+    .unwrap();
+    assert!(e.to_string().contains("settling time"), "{e}");
     let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
     let (rec, _) = twin
         .run(
@@ -460,4 +471,73 @@ fn a_reference_at_rest_gets_no_friction_feedforward_from_rounding() {
             at_rest[i]
         );
     }
+}
+
+#[test]
+fn a_run_from_rest_starts_settled_under_a_wrong_nominal_model() {
+    let robot = common::irb1200();
+    // Frictionless drives: no stiction holds the arm where the controller first puts it.
+    let drive = Drive::from_toml_str(builtin::IDEAL_DRIVE, "ideal drive", &robot).unwrap();
+    // The arm held stretched forward, by a controller whose model is 20 % wrong.
+    struct Hold;
+    impl Trajectory for Hold {
+        fn dof(&self) -> usize {
+            6
+        }
+        fn duration(&self) -> f64 {
+            0.2
+        }
+        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+            q.copy_from_slice(&[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
+            dq.fill(0.0);
+            ddq.fill(0.0);
+        }
+    }
+    let run = |settle_s: f64| {
+        let cfg = TwinConfig {
+            nominal_error: 0.2,
+            nominal_seed: 3,
+            settle_s,
+            ..TwinConfig::default()
+        };
+        Twin::new(&robot, &drive, cfg)
+            .unwrap()
+            .run(&Hold, &[], &[])
+            .unwrap()
+            .0
+    };
+    let (settled, unsettled) = (run(0.5), run(0.0));
+    // The true gravity where the settled arm stands (its tracking error off the reference).
+    let q = col(|i| settled.q[i][0]);
+    let mut gravity = [0.0; 6];
+    rnea(
+        &robot,
+        &mut Workspace::new(&robot),
+        &q,
+        &[0.0; 6],
+        &[0.0; 6],
+        None,
+        &mut gravity,
+    );
+    // Settled, the first row holds the arm with the true gravity and nothing moves after it;
+    // unsettled, the first row is the nominal model's gravity and the arm sags from there.
+    let mut sag: f64 = 0.0;
+    // Joints 2 and 3 carry the arm's weight.
+    for (i, g) in gravity.iter().enumerate().take(3).skip(1) {
+        let last = settled.len() - 1;
+        let first = settled.tau[i][0];
+        assert!(
+            (first - g).abs() < 1e-3 * g.abs(),
+            "joint {}: first torque {first} N m, true gravity {g} N m",
+            i + 1
+        );
+        assert!(
+            (settled.tau[i][last] - first).abs() < 1e-3 * g.abs(),
+            "joint {}: {first} -> {} N m",
+            i + 1,
+            settled.tau[i][last]
+        );
+        sag = sag.max((unsettled.tau[i][unsettled.len() - 1] - unsettled.tau[i][0]).abs());
+    }
+    assert!(sag > 1.0, "the unsettled arm's torque moved only {sag} N m");
 }

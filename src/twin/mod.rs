@@ -5,6 +5,12 @@
 //! the inverse-dynamics model evaluated on the reference. [`sensor`] turns the truth into a
 //! logged, noisy measurement stream.
 //!
+//! # Start
+//! A run that starts at rest begins as a real log does: the arm has stood servoed at the first
+//! pose for [`TwinConfig::settle_s`] before the first row, so its controller's tracking error
+//! has balanced the true gravity (or stiction holds the joint where the controller's torque
+//! left it), rather than starting from zero tracking error with the nominal model's torque.
+//!
 //! # Brakes
 //! A run may hold the arm with its brakes during [`BrakeWindow`]s (only while the reference
 //! stands still, and only with a drive file that gives the brakes-applied mode, [`Brakes`]).
@@ -25,7 +31,7 @@ pub mod sensor;
 
 use serde::{Deserialize, Serialize};
 
-use crate::dynamics::DriveTerms;
+use crate::dynamics::{DriveTerms, REST_SPEED_EPS};
 use crate::error::{Error, Result};
 use crate::model::drive::{BrakeWindow, Brakes, Drive};
 use crate::model::payload::{Payload, PayloadEvent};
@@ -90,6 +96,17 @@ pub struct TwinConfig {
         skip_serializing_if = "sensor::is_zero"
     )]
     pub cabinet_power_w: f64,
+    /// How long the arm stands servoed at its first pose before a run that starts at rest
+    /// records, s: as a robot stands before its log begins, so the holding torque it records
+    /// first is the true gravity's (where stiction does not hold the joint), not the
+    /// controller's nominal model's. The default, 0.5 s, is ten time constants of the default
+    /// gains (critically damped at 20 rad/s) and more of a family robot's stiffer ones.
+    #[serde(rename = "settle_s", default = "default_settle_s")]
+    pub settle_s: f64,
+}
+
+fn default_settle_s() -> f64 {
+    0.5
 }
 
 impl Default for TwinConfig {
@@ -102,6 +119,7 @@ impl Default for TwinConfig {
             nominal_seed: 0,
             fidelity: Fidelity::Exact,
             cabinet_power_w: 0.0,
+            settle_s: default_settle_s(),
         }
     }
 }
@@ -135,14 +153,20 @@ pub struct Twin<'a> {
 
 impl<'a> Twin<'a> {
     /// A twin of `robot` with true drive parameters `drive`. Errors: invalid physics
-    /// settings, a nominal-model error that is not finite and in [0, 1), a cabinet power that
-    /// is not finite and >= 0, or drives of another joint count.
+    /// settings, a nominal-model error that is not finite and in [0, 1), a cabinet power or a
+    /// settling time that is not finite and >= 0, or drives of another joint count.
     pub fn new(robot: &'a Robot, drive: &'a Drive, config: TwinConfig) -> Result<Self> {
         config.physics.validate()?;
         if !(config.cabinet_power_w.is_finite() && config.cabinet_power_w >= 0.0) {
             return Err(Error::InvalidInput(format!(
                 "cabinet power {} W must be finite and >= 0",
                 config.cabinet_power_w
+            )));
+        }
+        if !(config.settle_s.is_finite() && config.settle_s >= 0.0) {
+            return Err(Error::InvalidInput(format!(
+                "settling time {} s before a run must be finite and >= 0",
+                config.settle_s
             )));
         }
         if !(config.nominal_error.is_finite() && (0.0..1.0).contains(&config.nominal_error)) {
@@ -174,7 +198,8 @@ impl<'a> Twin<'a> {
         }
     }
 
-    /// Simulate tracking `traj` from rest at its start, with payload changes `events`
+    /// Simulate tracking `traj` from rest at its start (where the arm first stands servoed at
+    /// the start pose for [`TwinConfig::settle_s`]), with payload changes `events`
     /// (sorted by time; an event at 0 sets the initial payload) and the brakes holding the arm
     /// during `brakes` (sorted, not overlapping; see the [module docs](self)).
     ///
@@ -217,7 +242,7 @@ impl<'a> Twin<'a> {
         let cfg = &self.config;
         let dt = cfg.physics.dt;
         let truth_terms = DriveTerms::from(self.drive);
-        let mut sim = RapierRobot::new(self.robot, &truth_terms, &cfg.physics)?;
+        let sim = RapierRobot::new(self.robot, &truth_terms, &cfg.physics)?;
         let (nominal, nominal_terms) = perturbed(
             self.robot,
             &truth_terms,
@@ -225,7 +250,8 @@ impl<'a> Twin<'a> {
             cfg.nominal_seed,
         )?;
         let nominal_last = nominal.links()[n - 1].inertia;
-        let mut ctrl = Controller::new(nominal, nominal_terms, cfg.gains);
+        let ctrl = Controller::new(nominal, nominal_terms, cfg.gains);
+        let mut arm = Arm::new(sim, ctrl, self.drive, cfg.fidelity == Fidelity::Realistic);
         let steps = (traj.duration() / dt).floor() as usize;
         let mut rec = Recording {
             dt,
@@ -245,46 +271,37 @@ impl<'a> Twin<'a> {
         let (mut qr, mut dqr, mut ddqr, mut tau) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         traj.sample(0.0, &mut qr, &mut dqr, &mut ddqr);
-        sim.set_state(&qr, &dqr);
+        arm.sim.set_state(&qr, &dqr);
         let mut next_event = 0;
         let mut payload_mass = 0.0;
-        let mut hits: Vec<Option<TorqueLimitHit>> = vec![None; n];
-        let mut max_err: f64 = 0.0;
-        let realistic = cfg.fidelity == Fidelity::Realistic;
-        let joints = self.drive.joints();
-        sim.state(&mut q, &mut dq);
-        for k in 0..steps {
-            let t = k as f64 * dt;
+        let mut apply_events = |arm: &mut Arm, t: f64, payload_mass: &mut f64| -> Result<()> {
             while next_event < events.len() && events[next_event].t_s <= t + 0.5 * dt {
                 let p = events[next_event].payload.as_ref();
-                sim.set_last_link_inertia(&self.last_link(p));
+                arm.sim.set_last_link_inertia(&self.last_link(p));
                 let nominal_with = match p {
                     Some(p) => nominal_last.combined(&p.in_last_link_frame(self.robot)),
                     None => nominal_last,
                 };
-                ctrl.set_last_link_inertia(nominal_with)?;
-                payload_mass = p.map_or(0.0, |p| p.inertia.mass);
+                arm.ctrl.set_last_link_inertia(nominal_with)?;
+                *payload_mass = p.map_or(0.0, |p| p.inertia.mass);
                 next_event += 1;
             }
+            Ok(())
+        };
+        apply_events(&mut arm, 0.0, &mut payload_mass)?;
+        if dqr.iter().all(|v| v.abs() <= REST_SPEED_EPS) {
+            arm.settle(&qr, cfg.settle_s, dt)?;
+        }
+        let mut hits: Vec<Option<TorqueLimitHit>> = vec![None; n];
+        let mut max_err: f64 = 0.0;
+        let joints = self.drive.joints();
+        arm.sim.state(&mut q, &mut dq);
+        for k in 0..steps {
+            let t = k as f64 * dt;
+            apply_events(&mut arm, t, &mut payload_mass)?;
             traj.sample(t, &mut qr, &mut dqr, &mut ddqr);
-            let clipped = ctrl.torque(&q, &dq, &qr, &dqr, &ddqr, &mut tau);
-            if tau.iter().any(|v| !v.is_finite()) {
-                return Err(Error::Numerical(format!(
-                    "the controller produced a non-finite torque at t = {t:.4} s"
-                )));
-            }
-            if realistic {
-                for (i, d) in joints.iter().enumerate() {
-                    sim.set_coulomb(i, d.unmodelled.friction(d.friction.coulomb, dq[i], tau[i]));
-                }
-            }
-            sim.step(&tau);
-            sim.state(&mut q_next, &mut dq_next);
-            if q_next.iter().chain(&dq_next).any(|v| !v.is_finite()) {
-                return Err(Error::Numerical(format!(
-                    "the simulation diverged at t = {t:.4} s"
-                )));
-            }
+            let next = [q_next.as_mut_slice(), dq_next.as_mut_slice()];
+            let clipped = arm.step(t, [&q, &dq], [&qr, &dqr, &ddqr], &mut tau, next)?;
             let braked = brakes_mode.filter(|_| BrakeWindow::holds(brakes, t));
             if braked.is_some() && dqr.iter().chain(&ddqr).any(|v| v.abs() > 1e-9) {
                 return Err(Error::InvalidInput(format!(
@@ -308,7 +325,7 @@ impl<'a> Twin<'a> {
                     Some(b) => b.power_w / n as f64,
                     None => {
                         let mut p = cfg.motor.electrical_power(&joints[i], tau[i], p_mech);
-                        if realistic {
+                        if arm.realistic {
                             p += joints[i].unmodelled.iron_loss(speed);
                         }
                         p
@@ -338,5 +355,81 @@ impl<'a> Twin<'a> {
                 torque_limit_hits: hits.into_iter().flatten().collect(),
             },
         ))
+    }
+}
+
+/// The simulated arm under its controller: one control step at a time.
+struct Arm<'d> {
+    sim: RapierRobot,
+    ctrl: Controller,
+    drive: &'d Drive,
+    /// Whether the drives' unmodelled effects act ([`Fidelity::Realistic`]).
+    realistic: bool,
+}
+
+impl<'d> Arm<'d> {
+    fn new(sim: RapierRobot, ctrl: Controller, drive: &'d Drive, realistic: bool) -> Self {
+        Arm {
+            sim,
+            ctrl,
+            drive,
+            realistic,
+        }
+    }
+
+    /// One control step at time `t` (s) from the state `[q, dq]` (rad, rad/s) toward the
+    /// reference `[q_ref, dq_ref, ddq_ref]`: the controller's torque (N m) into `tau`, held
+    /// over the step, and the state after it into `next`. Returns the controller's clip mask.
+    /// Errors: a non-finite torque or a diverging simulation.
+    fn step(
+        &mut self,
+        t: f64,
+        state: [&[f64]; 2],
+        refs: [&[f64]; 3],
+        tau: &mut [f64],
+        next: [&mut [f64]; 2],
+    ) -> Result<u64> {
+        let [q, dq] = state;
+        let [qr, dqr, ddqr] = refs;
+        let clipped = self.ctrl.torque(q, dq, qr, dqr, ddqr, tau);
+        if tau.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical(format!(
+                "the controller produced a non-finite torque at t = {t:.4} s"
+            )));
+        }
+        if self.realistic {
+            for (i, d) in self.drive.joints().iter().enumerate() {
+                self.sim
+                    .set_coulomb(i, d.unmodelled.friction(d.friction.coulomb, dq[i], tau[i]));
+            }
+        }
+        self.sim.step(tau);
+        let [q_next, dq_next] = next;
+        self.sim.state(q_next, dq_next);
+        if q_next.iter().chain(dq_next.iter()).any(|v| !v.is_finite()) {
+            return Err(Error::Numerical(format!(
+                "the simulation diverged at t = {t:.4} s"
+            )));
+        }
+        Ok(clipped)
+    }
+
+    /// Hold the reference `q_ref` (rad) at rest for `duration` (s) in steps of `dt` (s), so
+    /// the controller's tracking error balances the true gravity before the recording starts.
+    fn settle(&mut self, q_ref: &[f64], duration: f64, dt: f64) -> Result<()> {
+        let n = q_ref.len();
+        let zero = vec![0.0; n];
+        let (mut q, mut dq, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut q_next, mut dq_next) = (vec![0.0; n], vec![0.0; n]);
+        self.sim.state(&mut q, &mut dq);
+        let steps = (duration / dt).round() as usize;
+        for k in 0..steps {
+            let t = (k as f64 - steps as f64) * dt;
+            let next = [q_next.as_mut_slice(), dq_next.as_mut_slice()];
+            self.step(t, [&q, &dq], [q_ref, &zero, &zero], &mut tau, next)?;
+            std::mem::swap(&mut q, &mut q_next);
+            std::mem::swap(&mut dq, &mut dq_next);
+        }
+        Ok(())
     }
 }

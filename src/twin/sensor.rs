@@ -13,7 +13,8 @@
 //! estimate centred on `t_k`), as RobotStudio's signal analyser does, or averaged over the
 //! sample period `[t_k - T, t_k)` when `power_averaging` is on (an integrating power meter;
 //! window energies are then exact; before the recording the robot stood at its first state,
-//! so a window reaching back before `t = 0` holds row 0's power there). A meter on its own
+//! [`crate::twin::TwinConfig::settle_s`], so a window reaching back before `t = 0` holds row
+//! 0's power there). A meter on its own
 //! clock may log the power `power_lag_s` late, and the logger may stamp each sample up to
 //! `stamp_jitter_s` off its sampling instant (both 0 by default). Noise and jitter are
 //! seeded, so a seed reproduces a dataset bit for bit.
