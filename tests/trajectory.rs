@@ -113,6 +113,34 @@ fn sampled_passes_through_every_sample() {
 }
 
 #[test]
+fn a_route_leaving_a_rest_takes_the_coulomb_sign_of_its_displacement() {
+    // At rest at 0, then barely displaced by the first sample but fast there: the quintic
+    // first swings back (a route through a joint that breaks away late).
+    let t = vec![0.0, 0.1, 0.2, 0.3];
+    let q = vec![vec![0.0, 0.001, 0.03, 0.06]];
+    let dq = vec![vec![0.0, 0.3, 0.3, 0.3]];
+    let ddq = vec![vec![0.0; 4]];
+    let s = Sampled::new(t, q, Some(dq), Some(ddq)).unwrap();
+    let at = |s: &Sampled, t: f64| {
+        let (mut q, mut dq, mut ddq, mut sign) = ([0.0], [0.0], [0.0], [0.0]);
+        s.sample(t, &mut q, &mut dq, &mut ddq);
+        s.coulomb_signs(t, &dq, &mut sign);
+        (dq[0], sign[0])
+    };
+    let (back, exact) = at(&s, 0.02);
+    assert!(back < 0.0, "the route must swing back: {back} rad/s");
+    assert_eq!(exact, -1.0, "a plan's sign is its speed's");
+    let s = s.with_move_weights(vec![vec![1.0, 1.0, 0.5, 0.5]]).unwrap();
+    // Leaving the rest: the way the joint goes, not the swing back.
+    assert_eq!(at(&s, 0.02).1, 1.0);
+    // At the rest itself: no sign.
+    assert_eq!(at(&s, 0.0).1, 0.0);
+    // Away from a rest the route's own speed, weighed.
+    let (v, sign) = at(&s, 0.25);
+    assert!(v > 0.0 && (sign - 0.5).abs() < 1e-12, "{v} {sign}");
+}
+
+#[test]
 fn sampled_move_weights_scale_the_coulomb_signs_linearly_between_samples() {
     // Two joints moving in opposite directions through three samples.
     let t = vec![0.0, 0.1, 0.2];

@@ -16,6 +16,7 @@
 //! Trajectory time is measured from the first sample: `tau = t - t_0` (s), so the trajectory
 //! is defined on `[0, t_last - t_0]`; [`Sampled::start_time`] returns `t_0`.
 
+use crate::dynamics::sign;
 use crate::error::{Error, Result};
 use crate::io::table::Table;
 
@@ -135,6 +136,10 @@ impl Sampled {
     /// clearly joint `i` is seen to move at sample `k` (linear between samples). An estimate
     /// of the motion from noisy positions gives a joint that stands still while the others
     /// move speeds of the noise's size, whose signs would switch its full Coulomb torque.
+    /// Such an estimate also swings back next to a rest when the joint breaks away late (or
+    /// overshoots as it stops), so a joint moving in an interval next to a sample at rest
+    /// takes the sign of its displacement over that interval, the way it leaves or reaches
+    /// the rest.
     ///
     /// Errors ([`Error::InvalidInput`]): not one weight per joint and sample, or a weight
     /// outside `[0, 1]`.
@@ -287,10 +292,21 @@ impl Trajectory for Sampled {
         let Some(weights) = &self.move_weights else {
             return super::exact_coulomb_signs(dq, s);
         };
+        let intervals = self.knots.len() - 1;
         let (k, from_knot) = self.interval(t);
-        let f = from_knot / (self.knots[k + 1] - self.knots[k]);
-        for ((si, &v), w) in s.iter_mut().zip(dq).zip(weights) {
-            *si = crate::dynamics::sign(v) * (w[k] + f * (w[k + 1] - w[k]));
+        let h = self.knots[k + 1] - self.knots[k];
+        let f = from_knot / h;
+        for (i, ((si, &v), w)) in s.iter_mut().zip(dq).zip(weights).enumerate() {
+            let [_, c1, c2, c3, c4, c5] = self.coeffs[i * intervals + k];
+            let end_speed = c1 + h * (2.0 * c2 + h * (3.0 * c3 + h * (4.0 * c4 + h * 5.0 * c5)));
+            // Moving next to a rest, the joint leaves (reaches) it the way it is displaced
+            // over the interval; the route's speed may ring against that near the rest.
+            let speed = if sign(v) != 0.0 && (sign(c1) == 0.0 || sign(end_speed) == 0.0) {
+                c1 + h * (c2 + h * (c3 + h * (c4 + h * c5)))
+            } else {
+                v
+            };
+            *si = sign(speed) * (w[k] + f * (w[k + 1] - w[k]));
         }
     }
 }
