@@ -30,6 +30,7 @@ mod prior;
 mod reproduce;
 mod results_doc;
 mod runs_manifest;
+mod sampled;
 mod sampling;
 mod simulate_cli;
 mod task;

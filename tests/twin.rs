@@ -38,6 +38,28 @@ impl Trajectory for Swing {
     }
 }
 
+/// The arm held still at [`HOLD_POSE`] (stretched forward) for `duration` s.
+struct Hold {
+    duration: f64,
+}
+
+/// Joint positions of [`Hold`], rad.
+const HOLD_POSE: [f64; 6] = [0.0, 0.5, 0.0, 0.0, 0.3, 0.0];
+
+impl Trajectory for Hold {
+    fn dof(&self) -> usize {
+        6
+    }
+    fn duration(&self) -> f64 {
+        self.duration
+    }
+    fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+        q.copy_from_slice(&HOLD_POSE);
+        dq.fill(0.0);
+        ddq.fill(0.0);
+    }
+}
+
 fn drive(robot: &powertwin::Robot) -> Drive {
     Drive::from_toml_str(builtin::IRB1200_DRIVE, "irb1200 drive", robot).unwrap()
 }
@@ -241,21 +263,7 @@ fn picking_a_payload_adds_its_gravity_load() {
     let robot = common::irb1200();
     let drive = drive(&robot);
     let twin = Twin::new(&robot, &drive, TwinConfig::default()).unwrap();
-    // Hold still at a pose with the arm stretched forward; pick 4 kg at 1 s, release at 2 s.
-    struct Hold;
-    impl Trajectory for Hold {
-        fn dof(&self) -> usize {
-            6
-        }
-        fn duration(&self) -> f64 {
-            3.0
-        }
-        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
-            q.copy_from_slice(&[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
-            dq.fill(0.0);
-            ddq.fill(0.0);
-        }
-    }
+    // Hold still with the arm stretched forward; pick 4 kg at 1 s, release at 2 s.
     let load = builtin::payload("load_4kg").unwrap();
     let events = [
         PayloadEvent {
@@ -267,17 +275,17 @@ fn picking_a_payload_adds_its_gravity_load() {
             payload: None,
         },
     ];
-    let (rec, _) = twin.run(&Hold, &events, &[]).unwrap();
+    let (rec, _) = twin.run(&Hold { duration: 3.0 }, &events, &[]).unwrap();
     let at = |t: f64| (t / rec.dt).round() as usize;
     let (before, during, after) = (at(0.9), at(1.9), at(2.9));
     assert_eq!(rec.payload_mass[before], 0.0);
     assert_eq!(rec.payload_mass[during], 4.0);
     // Expected extra gravity torque on joints 2 and 3: 4 kg x 9.81 m/s^2 x horizontal lever
     // arm of the load COM from each axis (both axes horizontal, along y).
-    let flange = powertwin::kinematics::fk::flange_pose(&robot, &[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
+    let flange = powertwin::kinematics::fk::flange_pose(&robot, &HOLD_POSE);
     let com = flange * nalgebra::Point3::from(load.inertia.com);
     let mut poses = vec![nalgebra::Isometry3::identity(); 6];
-    powertwin::kinematics::fk::link_poses(&robot, &[0.0, 0.5, 0.0, 0.0, 0.3, 0.0], &mut poses);
+    powertwin::kinematics::fk::link_poses(&robot, &HOLD_POSE, &mut poses);
     for j in [1, 2] {
         let axis_x = poses[j].translation.vector.x;
         let expect = 4.0 * 9.81 * (com.x - axis_x);
@@ -479,20 +487,6 @@ fn a_run_from_rest_starts_settled_under_a_wrong_nominal_model() {
     // Frictionless drives: no stiction holds the arm where the controller first puts it.
     let drive = Drive::from_toml_str(builtin::IDEAL_DRIVE, "ideal drive", &robot).unwrap();
     // The arm held stretched forward, by a controller whose model is 20 % wrong.
-    struct Hold;
-    impl Trajectory for Hold {
-        fn dof(&self) -> usize {
-            6
-        }
-        fn duration(&self) -> f64 {
-            0.2
-        }
-        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
-            q.copy_from_slice(&[0.0, 0.5, 0.0, 0.0, 0.3, 0.0]);
-            dq.fill(0.0);
-            ddq.fill(0.0);
-        }
-    }
     let run = |settle_s: f64| {
         let cfg = TwinConfig {
             nominal_error: 0.2,
@@ -500,11 +494,8 @@ fn a_run_from_rest_starts_settled_under_a_wrong_nominal_model() {
             settle_s,
             ..TwinConfig::default()
         };
-        Twin::new(&robot, &drive, cfg)
-            .unwrap()
-            .run(&Hold, &[], &[])
-            .unwrap()
-            .0
+        let twin = Twin::new(&robot, &drive, cfg).unwrap();
+        twin.run(&Hold { duration: 0.2 }, &[], &[]).unwrap().0
     };
     let (settled, unsettled) = (run(0.5), run(0.0));
     // The true gravity where the settled arm stands (its tracking error off the reference).
