@@ -213,32 +213,8 @@ impl<'a> Twin<'a> {
         events: &[PayloadEvent],
         brakes: &[BrakeWindow],
     ) -> Result<(Recording, RunReport)> {
+        let brakes_mode = self.check_run(traj, events, brakes)?;
         let n = self.robot.dof();
-        if traj.dof() != n {
-            return Err(Error::InvalidInput(format!(
-                "trajectory has {} joints, robot {n}",
-                traj.dof()
-            )));
-        }
-        if events.windows(2).any(|w| w[1].t_s < w[0].t_s)
-            || events.iter().any(|e| !e.t_s.is_finite())
-        {
-            return Err(Error::InvalidInput(
-                "payload events must be finite and sorted by time".into(),
-            ));
-        }
-        BrakeWindow::check_all(brakes)?;
-        let brakes_mode: Option<&Brakes> = match (brakes.is_empty(), self.drive.brakes()) {
-            (true, _) => None,
-            (false, Some(b)) => Some(b),
-            (false, None) => {
-                return Err(Error::InvalidInput(
-                    "the run holds the arm with its brakes, but the drive file gives no \
-                     brakes-applied mode ([brakes])"
-                        .into(),
-                ));
-            }
-        };
         let cfg = &self.config;
         let dt = cfg.physics.dt;
         let truth_terms = DriveTerms::from(self.drive);
@@ -249,56 +225,27 @@ impl<'a> Twin<'a> {
             cfg.nominal_error,
             cfg.nominal_seed,
         )?;
-        let nominal_last = nominal.links()[n - 1].inertia;
+        let mut payloads = Payloads::new(nominal.links()[n - 1].inertia);
         let ctrl = Controller::new(nominal, nominal_terms, cfg.gains);
         let mut arm = Arm::new(sim, ctrl, self.drive, cfg.fidelity == Fidelity::Realistic);
         let steps = (traj.duration() / dt).floor() as usize;
-        let mut rec = Recording {
-            dt,
-            ..Recording::default()
-        };
-        let per_joint = || vec![Vec::with_capacity(steps); n];
-        rec.q = per_joint();
-        rec.dq = per_joint();
-        rec.q_ref = per_joint();
-        rec.dq_ref = per_joint();
-        rec.ddq_ref = per_joint();
-        rec.tau = per_joint();
-        rec.p_mech = per_joint();
-        rec.p_elec = per_joint();
+        let mut rec = Recording::with_capacity(n, steps, dt);
         let (mut q, mut dq, mut q_next, mut dq_next) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let (mut qr, mut dqr, mut ddqr, mut tau) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         traj.sample(0.0, &mut qr, &mut dqr, &mut ddqr);
         arm.sim.set_state(&qr, &dqr);
-        let mut next_event = 0;
-        let mut payload_mass = 0.0;
-        let mut apply_events = |arm: &mut Arm, t: f64, payload_mass: &mut f64| -> Result<()> {
-            while next_event < events.len() && events[next_event].t_s <= t + 0.5 * dt {
-                let p = events[next_event].payload.as_ref();
-                arm.sim.set_last_link_inertia(&self.last_link(p));
-                let nominal_with = match p {
-                    Some(p) => nominal_last.combined(&p.in_last_link_frame(self.robot)),
-                    None => nominal_last,
-                };
-                arm.ctrl.set_last_link_inertia(nominal_with)?;
-                *payload_mass = p.map_or(0.0, |p| p.inertia.mass);
-                next_event += 1;
-            }
-            Ok(())
-        };
-        apply_events(&mut arm, 0.0, &mut payload_mass)?;
+        payloads.apply(self, &mut arm, events, 0.0, dt)?;
         if dqr.iter().all(|v| v.abs() <= REST_SPEED_EPS) {
             arm.settle(&qr, cfg.settle_s, dt)?;
         }
         let mut hits: Vec<Option<TorqueLimitHit>> = vec![None; n];
         let mut max_err: f64 = 0.0;
-        let joints = self.drive.joints();
         arm.sim.state(&mut q, &mut dq);
         for k in 0..steps {
             let t = k as f64 * dt;
-            apply_events(&mut arm, t, &mut payload_mass)?;
+            payloads.apply(self, &mut arm, events, t, dt)?;
             traj.sample(t, &mut qr, &mut dqr, &mut ddqr);
             let next = [q_next.as_mut_slice(), dq_next.as_mut_slice()];
             let clipped = arm.step(t, [&q, &dq], [&qr, &dqr, &ddqr], &mut tau, next)?;
@@ -320,17 +267,7 @@ impl<'a> Twin<'a> {
                     h.steps += 1;
                 }
                 let speed = (q_next[i] - q[i]) / dt;
-                let p_mech = tau[i] * speed;
-                let p_elec = match braked {
-                    Some(b) => b.power_w / n as f64,
-                    None => {
-                        let mut p = cfg.motor.electrical_power(&joints[i], tau[i], p_mech);
-                        if arm.realistic {
-                            p += joints[i].unmodelled.iron_loss(speed);
-                        }
-                        p
-                    }
-                };
+                let p_elec = self.electrical_power(i, tau[i], speed, braked);
                 p_total += p_elec;
                 rec.q[i].push(q[i]);
                 rec.dq[i].push(dq[i]);
@@ -338,13 +275,13 @@ impl<'a> Twin<'a> {
                 rec.dq_ref[i].push(dqr[i]);
                 rec.ddq_ref[i].push(ddqr[i]);
                 rec.tau[i].push(tau[i]);
-                rec.p_mech[i].push(p_mech);
+                rec.p_mech[i].push(tau[i] * speed);
                 rec.p_elec[i].push(p_elec);
             }
             rec.t.push(t);
             rec.p_total.push(p_total + cfg.cabinet_power_w);
             rec.p_grid.push(p_total.max(0.0) + cfg.cabinet_power_w);
-            rec.payload_mass.push(payload_mass);
+            rec.payload_mass.push(payloads.mass);
             std::mem::swap(&mut q, &mut q_next);
             std::mem::swap(&mut dq, &mut dq_next);
         }
@@ -355,6 +292,104 @@ impl<'a> Twin<'a> {
                 torque_limit_hits: hits.into_iter().flatten().collect(),
             },
         ))
+    }
+
+    /// The checks of [`Twin::run`]'s inputs; the drive's brakes-applied mode when the run
+    /// holds the arm with its brakes.
+    fn check_run(
+        &self,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        brakes: &[BrakeWindow],
+    ) -> Result<Option<&'a Brakes>> {
+        let n = self.robot.dof();
+        if traj.dof() != n {
+            return Err(Error::InvalidInput(format!(
+                "trajectory has {} joints, robot {n}",
+                traj.dof()
+            )));
+        }
+        if events.windows(2).any(|w| w[1].t_s < w[0].t_s)
+            || events.iter().any(|e| !e.t_s.is_finite())
+        {
+            return Err(Error::InvalidInput(
+                "payload events must be finite and sorted by time".into(),
+            ));
+        }
+        BrakeWindow::check_all(brakes)?;
+        match (brakes.is_empty(), self.drive.brakes()) {
+            (true, _) => Ok(None),
+            (false, Some(b)) => Ok(Some(b)),
+            (false, None) => Err(Error::InvalidInput(
+                "the run holds the arm with its brakes, but the drive file gives no \
+                 brakes-applied mode ([brakes])"
+                    .into(),
+            )),
+        }
+    }
+
+    /// Electrical power (W) of motor `i` applying `tau` (N m) at joint speed `speed` (rad/s)
+    /// over a step: the motor model (plus iron loss at realistic fidelity), or its share of
+    /// the brakes-applied power while `braked`.
+    fn electrical_power(&self, i: usize, tau: f64, speed: f64, braked: Option<&Brakes>) -> f64 {
+        let cfg = &self.config;
+        let joint = &self.drive.joints()[i];
+        match braked {
+            Some(b) => b.power_w / self.robot.dof() as f64,
+            None => {
+                let mut p = cfg.motor.electrical_power(joint, tau, tau * speed);
+                if cfg.fidelity == Fidelity::Realistic {
+                    p += joint.unmodelled.iron_loss(speed);
+                }
+                p
+            }
+        }
+    }
+}
+
+/// The payload timeline of a run as it plays: the next event and the mass on the flange.
+struct Payloads {
+    /// Index of the next event to apply.
+    next: usize,
+    /// Payload mass on the flange, kg.
+    mass: f64,
+    /// The controller's nominal last link without a payload.
+    nominal_last: RigidInertia,
+}
+
+impl Payloads {
+    fn new(nominal_last: RigidInertia) -> Self {
+        Payloads {
+            next: 0,
+            mass: 0.0,
+            nominal_last,
+        }
+    }
+
+    /// Apply the `events` due by time `t` (s; within half a step `dt`) to the physics and to
+    /// the controller's nominal model (the controller is told the payload).
+    fn apply(
+        &mut self,
+        twin: &Twin,
+        arm: &mut Arm,
+        events: &[PayloadEvent],
+        t: f64,
+        dt: f64,
+    ) -> Result<()> {
+        while self.next < events.len() && events[self.next].t_s <= t + 0.5 * dt {
+            let p = events[self.next].payload.as_ref();
+            arm.sim.set_last_link_inertia(&twin.last_link(p));
+            let nominal_with = match p {
+                Some(p) => self
+                    .nominal_last
+                    .combined(&p.in_last_link_frame(twin.robot)),
+                None => self.nominal_last,
+            };
+            arm.ctrl.set_last_link_inertia(nominal_with)?;
+            self.mass = p.map_or(0.0, |p| p.inertia.mass);
+            self.next += 1;
+        }
+        Ok(())
     }
 }
 

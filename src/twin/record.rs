@@ -59,6 +59,27 @@ pub struct Measured {
 }
 
 impl Recording {
+    /// An empty recording of `n` joints at step `dt` (s), with room for `rows` rows.
+    pub fn with_capacity(n: usize, rows: usize, dt: f64) -> Recording {
+        let per_joint = || vec![Vec::with_capacity(rows); n];
+        let series = || Vec::with_capacity(rows);
+        Recording {
+            dt,
+            t: series(),
+            q: per_joint(),
+            dq: per_joint(),
+            q_ref: per_joint(),
+            dq_ref: per_joint(),
+            ddq_ref: per_joint(),
+            tau: per_joint(),
+            p_mech: per_joint(),
+            p_elec: per_joint(),
+            p_total: series(),
+            p_grid: series(),
+            payload_mass: series(),
+        }
+    }
+
     /// Number of rows.
     pub fn len(&self) -> usize {
         self.t.len()
