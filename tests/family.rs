@@ -69,6 +69,63 @@ fn a_draw_is_reproducible_and_within_the_table() {
     );
 }
 
+/// A table that pins effects (ranges of zero width) draws every other effect as the default
+/// table does: an ablation compares the same robots with and without those effects.
+#[test]
+fn pinning_an_effect_leaves_the_other_draws_alone() {
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
+    let rig = common::irb1200_rig(
+        &robot,
+        &drive,
+        Fidelity::Realistic,
+        NoiseSettings::default(),
+    );
+    let default = FamilyTable::default();
+    let pinned = FamilyTable {
+        mass_rel: 0.0,
+        stribeck_peak: [1.3, 1.3],
+        gear_friction: [0.0, 0.0],
+        rate_hz: [100.0, 100.0],
+        power_lag_s: [0.02, 0.02],
+        ..default.clone()
+    };
+    for seed in [1, 2_000_030] {
+        let draw = |t: &FamilyTable| {
+            t.draw(&robot, &drive, &rig.twin, &rig.sensor, seed)
+                .unwrap()
+                .draw
+        };
+        let (a, b) = (draw(&default), draw(&pinned));
+        // The pinned effects take their values.
+        assert!(b.link_mass_error_rel.iter().all(|&e| e == 0.0));
+        assert_eq!(b.rate_hz, 100.0);
+        assert!((b.power_lag_s - 0.02).abs() < 1e-12, "{}", b.power_lag_s);
+        for j in &b.joints {
+            assert!((j.stribeck_static_nm / j.coulomb_nm - 1.3).abs() < 1e-12);
+            assert_eq!(
+                (j.gear_friction_per_nm, j.gear_friction_braking_per_nm),
+                (0.0, 0.0)
+            );
+        }
+        // Every other effect is the default table's draw.
+        let other = |d: &powertwin::twin::family::Draw| {
+            let joints: Vec<_> = d
+                .joints
+                .iter()
+                .map(|j| (j.coulomb_nm, j.viscous_nms_per_rad, j.stribeck_speed_rad_s))
+                .collect();
+            (joints, d.cabinet_w, d.bandwidth_rad_s, d.nominal_error)
+        };
+        assert_eq!(other(&a), other(&b), "seed {seed}");
+        assert_eq!(a.power_averaging, b.power_averaging);
+        assert_eq!(a.power_sigma_w, b.power_sigma_w);
+        // The jitter is drawn in sample periods.
+        let periods = |d: &powertwin::twin::family::Draw| d.stamp_jitter_s * d.rate_hz;
+        assert!((periods(&a) - periods(&b)).abs() < 1e-12, "seed {seed}");
+    }
+}
+
 #[test]
 fn bad_family_tables_are_refused_with_the_key() {
     for (text, key) in [

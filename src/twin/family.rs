@@ -235,11 +235,14 @@ pub fn family_seed(seed: u64, robot: usize, attempt: u64) -> u64 {
         .wrapping_add(attempt)
 }
 
-/// A uniform draw in `[lo, hi]` (`lo` when the range is empty).
+/// A uniform draw in `[lo, hi]` (`lo` when the range has no width). A range without width
+/// takes its draw from `rng` all the same, so a table that pins one effect draws every other
+/// effect as a table without the pin does: an ablation compares the same robots.
 fn uniform(rng: &mut ChaCha8Rng, [lo, hi]: [f64; 2]) -> f64 {
     if hi > lo {
         rng.random_range(lo..=hi)
     } else {
+        let _: f64 = rng.random_range(0.0..=1.0);
         lo
     }
 }
