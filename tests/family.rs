@@ -15,8 +15,8 @@ use powertwin::twin::family::FamilyTable;
 use powertwin::twin::sensor::{NoiseSettings, SensorSettings};
 use powertwin::validation::rig::Rig;
 
-#[test]
-fn a_draw_is_reproducible_and_within_the_table() {
+/// Robot `seed` of the family `table` draws around the IRB 1200's files and realistic rig.
+fn draw_plant(table: &FamilyTable, seed: u64) -> powertwin::twin::family::Plant {
     let robot = common::irb1200();
     let drive = common::irb1200_drive(&robot);
     let rig = common::irb1200_rig(
@@ -25,12 +25,17 @@ fn a_draw_is_reproducible_and_within_the_table() {
         Fidelity::Realistic,
         NoiseSettings::default(),
     );
+    table
+        .draw(&robot, &drive, &rig.twin, &rig.sensor, seed)
+        .unwrap()
+}
+
+#[test]
+fn a_draw_is_reproducible_and_within_the_table() {
+    let robot = common::irb1200();
+    let drive = common::irb1200_drive(&robot);
     let table = FamilyTable::default();
-    let draw = |seed| {
-        table
-            .draw(&robot, &drive, &rig.twin, &rig.sensor, seed)
-            .unwrap()
-    };
+    let draw = |seed| draw_plant(&table, seed);
     let (a, b, c) = (draw(7), draw(7), draw(8));
     assert_eq!(a.draw, b.draw);
     assert_ne!(a.draw, c.draw);
@@ -73,14 +78,6 @@ fn a_draw_is_reproducible_and_within_the_table() {
 /// table does: an ablation compares the same robots with and without those effects.
 #[test]
 fn pinning_an_effect_leaves_the_other_draws_alone() {
-    let robot = common::irb1200();
-    let drive = common::irb1200_drive(&robot);
-    let rig = common::irb1200_rig(
-        &robot,
-        &drive,
-        Fidelity::Realistic,
-        NoiseSettings::default(),
-    );
     let default = FamilyTable::default();
     let pinned = FamilyTable {
         mass_rel: 0.0,
@@ -91,11 +88,7 @@ fn pinning_an_effect_leaves_the_other_draws_alone() {
         ..default.clone()
     };
     for seed in [1, 2_000_030] {
-        let draw = |t: &FamilyTable| {
-            t.draw(&robot, &drive, &rig.twin, &rig.sensor, seed)
-                .unwrap()
-                .draw
-        };
+        let draw = |t: &FamilyTable| draw_plant(t, seed).draw;
         let (a, b) = (draw(&default), draw(&pinned));
         // The pinned effects take their values.
         assert!(b.link_mass_error_rel.iter().all(|&e| e == 0.0));
