@@ -46,7 +46,8 @@ fn heldout_intro(w: &mut String, r: &Results) {
          {}; weighting `{}`{}; residual {:.3} W; {} of {} base parameters with relative std < 1 %{}). Its \
          95 % intervals add to the parameter covariance a structure error averaged over what \
          the cross-validation pieces allow ({:.3} W plus {:.2} % of the active power, taken at no \
-         less than {:.1} W){}. It then predicts \
+         less than {:.1} W, and {:.3} W that the pieces of a left-out run share, taken in \
+         proportion to the time a motion rests){}. It then predicts \
          {} motions drawn from seed {} that no identification saw (random Fourier motions, \
          point-to-point moves, linear TCP moves at 0.05–1 m/s, payloads 0–7 kg), from the \
          10 Hz log of each (rests held still, the least-jerk spline through the positions \
@@ -105,6 +106,7 @@ fn heldout_intro(w: &mut String, r: &Results) {
         m.structure_sigma_w,
         100.0 * m.structure_rel,
         m.structure_active_w,
+        m.structure_fold_w,
         m.lowest_seen_w.map_or(String::new(), |w| format!(
             ", and half the energy a motion's power spends below {w:.1} W, the lowest the \
              identification logs show the meter at (what it reads there is undetermined)"

@@ -68,6 +68,10 @@ pub struct ModelInfo {
     /// Relative structure error of the chosen model's active power (cross-validated, as
     /// `structure_sigma_W`).
     pub structure_rel: f64,
+    /// Structure error the pieces of one left-out run share, W (cross-validated, as
+    /// `structure_sigma_W`): predictions take it in proportion to the time a motion rests.
+    #[serde(rename = "structure_fold_W")]
+    pub structure_fold_w: f64,
     /// Least mean active power at which predictions take the relative part, W.
     #[serde(rename = "structure_active_W")]
     pub structure_active_w: f64,
@@ -258,6 +262,7 @@ impl Results {
                 cv: outcome.idset.selection.scores.clone(),
                 structure_sigma_w: outcome.model.structure_sigma,
                 structure_rel: outcome.model.structure_rel,
+                structure_fold_w: outcome.model.structure_fold,
                 structure_active_w: outcome.model.structure_active,
                 lowest_seen_w: outcome.model.lowest_seen,
                 bus_floor_w: outcome.model.bus_floor,

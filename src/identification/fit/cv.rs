@@ -28,7 +28,8 @@ struct PieceSums {
 /// predictions are the mean of the two structures' power, so the structure error is that of
 /// the mean on the held-out pieces: their mean-power errors beyond what the chosen fold's
 /// parameter covariance and residual explain (fitted by `structure_fit`: `structure_sigma_W`
-/// and `structure_rel`), used for prediction intervals. Without a cross-validated
+/// and `structure_rel` of a piece's own, `structure_fold_W` shared by a fold's pieces), used
+/// for prediction intervals. Without a cross-validated
 /// alternative, the chosen structure's own pieces give it.
 ///
 /// Errors: no candidates, or a fit that fails on all data.
@@ -88,13 +89,15 @@ pub fn select(
     let StructureError {
         sigma_w,
         rel,
+        fold_w,
         active_w,
     } = structure_fit(&pieces);
     (
         f.model.structure_sigma,
         f.model.structure_rel,
+        f.model.structure_fold,
         f.model.structure_active,
-    ) = (sigma_w, rel, active_w);
+    ) = (sigma_w, rel, fold_w, active_w);
     Ok(Selection {
         scores,
         chosen,
@@ -248,6 +251,7 @@ fn score_fold(
             error_w: mean,
             explained_w2: param_var + residual_var / c,
             active_w: sums.active_w / c,
+            fold: s.folds_are_logs.then_some(k),
         });
     }
 }

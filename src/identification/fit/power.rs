@@ -236,6 +236,7 @@ mod tests {
             piece: vec![PieceId { log: 0, block: 0 }; 3],
             fold: vec![0; 3],
             folds: 1,
+            folds_are_logs: false,
             clipped: false,
             prior: None,
             floor: None,

@@ -84,6 +84,8 @@ pub struct Samples {
     pub(super) fold: Vec<usize>,
     /// Number of folds.
     pub(super) folds: usize,
+    /// Each fold holds out a whole log (three logs or more), not a time block of every log.
+    pub(super) folds_are_logs: bool,
     /// The signal cannot go negative.
     pub(super) clipped: bool,
     /// Prior of the base parameters: pseudo-observations every fit adds to the samples'
@@ -151,6 +153,7 @@ impl Samples {
             } else {
                 folds.max(2)
             },
+            folds_are_logs: logs.len() >= 3,
             clipped: first.signal.clipped(),
             prior: None,
             floor: None,
@@ -276,6 +279,7 @@ impl Samples {
             piece: vec![PieceId { log: 0, block: 0 }; len],
             fold: vec![0; len],
             folds: 1,
+            folds_are_logs: false,
             clipped: false,
             prior: None,
             floor: None,

@@ -111,6 +111,14 @@ pub struct PowerModel {
     /// works.
     #[serde(default)]
     pub structure_rel: f64,
+    /// Standard deviation of the mean-power error the cross-validation pieces of one fold
+    /// share, W: what leaving a whole log out of the fit costs. `structure_sigma_W` and
+    /// `structure_rel` are a piece's own error beyond it. A prediction takes it in proportion
+    /// to the time the motion rests, where no log was fitted
+    /// ([`crate::identification::tuning::FOLD_ERROR_REST_SHARE`]). Default 0 (a model file
+    /// from before it, whose two parts above hold it).
+    #[serde(default, rename = "structure_fold_W")]
+    pub structure_fold: f64,
     /// Least mean active power at which a prediction takes the relative part of its structure
     /// error, W: the cross-validation pieces' mean active power `|P - P0|`. The pieces cannot
     /// tell a constant error from a proportional one below the activity they cover, so a
@@ -219,6 +227,7 @@ impl PowerModel {
             covariance: Vec::new(),
             structure_sigma: 0.0,
             structure_rel: 0.0,
+            structure_fold: 0.0,
             structure_active: 0.0,
             lowest_seen: None,
             bus_floor: None,
@@ -315,6 +324,7 @@ impl PowerModel {
         for (what, v) in [
             ("structure_sigma_W", self.structure_sigma),
             ("structure_rel", self.structure_rel),
+            ("structure_fold_W", self.structure_fold),
             ("structure_active_W", self.structure_active),
         ] {
             if !(v.is_finite() && v >= 0.0) {

@@ -19,7 +19,10 @@ impl PowerModel {
     /// parameter covariance propagated through the energy (which is linear in the base
     /// parameters) plus the cross-validated structure error, `structure_sigma_W` times the
     /// motion's duration and `structure_rel` times its active energy `integral |P - P0| dt`
-    /// (at least `structure_active_W` times the duration), plus half the energy a clipped
+    /// (at least `structure_active_W` times the duration) and `structure_fold_W` times the
+    /// duration for a motion that rests (its variance in proportion to the time every joint
+    /// is slower than the least fitted speed, whole at [`tuning::FOLD_ERROR_REST_SHARE`] of
+    /// the duration), plus half the energy a clipped
     /// signal spends below `lowest_seen_W` (what the meter reads there is undetermined), plus
     /// [`tuning::UNSEEN_LOAD_LOSS`] of the mechanical energy a payload heavier than
     /// `payload_seen_kg` moves through the joints beyond that mass (`unseen_load_J`), plus
@@ -58,9 +61,15 @@ impl PowerModel {
         let mut g = vec![0.0; np];
         let coulomb = self.coulomb_params();
         let mut k = 0usize;
+        // Time at rest, s: every joint slower than the least speed the fit saw.
+        let mut rest = 0.0;
+        let rest_below = self.min_speed.unwrap_or(0.0);
         self.each_state(robot, traj, events, efficiency, &t, |e| {
             let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
             k += 1;
+            if e.dq.iter().all(|v| v.abs() < rest_below) {
+                rest += weight;
+            }
             let total: f64 = e.p.iter().sum();
             motor += weight * total;
             grid += weight * total.max(floor);
@@ -100,9 +109,11 @@ impl PowerModel {
         let stribeck_j = (!self.stribeck.is_empty()).then_some(stribeck_energy);
         let disagreement = alternative_j.map_or(0.0, |e| energy_j - e);
         let stribeck_rest = stribeck_j.map_or(0.0, |e| e - energy_j);
+        let rest_share = (rest / (tuning::FOLD_ERROR_REST_SHARE * duration)).min(1.0);
         let sigma = (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
+            + rest_share * (self.structure_fold * duration).powi(2)
             + (0.5 * unseen).powi(2)
             + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
             + disagreement.powi(2)
