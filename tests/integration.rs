@@ -20,6 +20,7 @@ mod heldout;
 mod identification;
 mod identify_cli;
 mod idset;
+mod intervals;
 mod kinematics;
 mod logs;
 mod model_files;
