@@ -45,7 +45,15 @@ fn a_resting_motion_takes_the_error_a_folds_pieces_share() {
     let duration_s = 10.0;
     let interval = |m: &PowerModel, rest_s: f64| {
         let traj = RestThenRamp { rest_s, duration_s };
-        m.predict(&robot, &traj, &[], 1.0, 1e-2).unwrap().interval_j
+        let p = m.predict(&robot, &traj, &[], 1.0, 1e-2).unwrap();
+        // The prediction reports the time at rest it took.
+        let expected_rest = if m.min_speed.is_some() { rest_s } else { 0.0 };
+        assert!(
+            (p.rest_s - expected_rest).abs() < 0.01,
+            "{} s at rest",
+            p.rest_s
+        );
+        p.interval_j
     };
     let whole = 1.96 * 0.5 * duration_s;
     assert_eq!(interval(&model, 0.0), 0.0);

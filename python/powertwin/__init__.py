@@ -263,7 +263,9 @@ class Prediction:
     other friction law (with load-dependent gear friction if this one has none, without it if
     it has) predicts (`energy_J` is the mean of the model's own and this); `stribeck_J` (J, None without a Stribeck law) what it predicts with the
     whole of the drive file's Stribeck rise at slow joint speeds (the model takes part of it).
-    The interval includes them."""
+    The interval includes them. `rest_s` (s) is the time the motion rests (every joint slower
+    than the least speed the identification fitted): the interval takes the error a left-out
+    identification log's pieces share in proportion to it."""
 
     energy_J: float
     interval_J: float
@@ -272,6 +274,7 @@ class Prediction:
     unseen_load_J: float
     alternative_J: Optional[float]
     stribeck_J: Optional[float]
+    rest_s: float
     measured_J: float
     error_pct: float
     power_rmse_W: float
@@ -285,7 +288,8 @@ class PlanPrediction:
     """The predicted energy of a planned motion (`powertwin predict --trajectory`):
     `energy_J` with its 95 % interval half width `interval_J` (J), `duration_s`,
     `mean_power_W`, and the power `power_W` (W) at the plan's sample times `t_s` (s);
-    `below_seen_J`, `unseen_load_J`, `alternative_J` and `stribeck_J` (J) as in `Prediction`."""
+    `below_seen_J`, `unseen_load_J`, `alternative_J`, `stribeck_J` (J) and `rest_s` (s) as in
+    `Prediction`."""
 
     energy_J: float
     interval_J: float
@@ -294,6 +298,7 @@ class PlanPrediction:
     unseen_load_J: float
     alternative_J: Optional[float]
     stribeck_J: Optional[float]
+    rest_s: float
     mean_power_W: float
     t_s: np.ndarray
     power_W: np.ndarray

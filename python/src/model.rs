@@ -242,6 +242,7 @@ fn plan_dict<'py>(py: Python<'py>, p: &PlanPrice, t0: f64) -> PyResult<Bound<'py
     d.set_item("unseen_load_J", pred.unseen_load_j)?;
     d.set_item("alternative_J", pred.alternative_j)?;
     d.set_item("stribeck_J", pred.stribeck_j)?;
+    d.set_item("rest_s", pred.rest_s)?;
     d.set_item("mean_power_W", p.mean_power_w())?;
     let t: Vec<f64> = p.t_s.iter().map(|t| t + t0).collect();
     d.set_item("t_s", PyArray1::from_vec(py, t))?;
@@ -331,6 +332,7 @@ impl PyModel {
         d.set_item("unseen_load_J", lp.prediction.unseen_load_j)?;
         d.set_item("alternative_J", lp.prediction.alternative_j)?;
         d.set_item("stribeck_J", lp.prediction.stribeck_j)?;
+        d.set_item("rest_s", lp.prediction.rest_s)?;
         d.set_item("measured_J", lp.measured_j)?;
         d.set_item("error_pct", lp.error_pct())?;
         d.set_item("power_rmse_W", lp.rmse_w())?;

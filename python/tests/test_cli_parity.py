@@ -54,6 +54,7 @@ def test_predict_equals_cli(robot, work):
     assert (pred.below_seen_J, pred.unseen_load_J) == (cli["below_seen_J"], cli["unseen_load_J"])
     assert pred.alternative_J == cli["alternative_J"]
     assert pred.stribeck_J == cli["stribeck_J"]
+    assert pred.rest_s == cli["rest_s"]
     assert pred.measured_J == cli["measured_J"]
     assert pred.power_rmse_W == cli["power_rmse_W"]
     assert pred.power_W.shape == pred.t_s.shape == pred.measured_W.shape

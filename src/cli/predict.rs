@@ -176,6 +176,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
                 "unseen_load_J": pred.unseen_load_j,
                 "alternative_J": pred.alternative_j,
                 "stribeck_J": pred.stribeck_j,
+                "rest_s": pred.rest_s,
             });
             if let (Some(sim), 1) = (simulated, rows.len()) {
                 v["simulated_J"] = json!(sim);
@@ -274,6 +275,7 @@ fn run_plan(args: &PredictArgs, robot: &Robot, model: &PowerModel) -> Result<Exi
             "unseen_load_J": pred.unseen_load_j,
             "alternative_J": pred.alternative_j,
             "stribeck_J": pred.stribeck_j,
+            "rest_s": pred.rest_s,
         });
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&v)?))?;
     } else {

@@ -129,6 +129,7 @@ impl PowerModel {
             unseen_load_j: unseen_load,
             alternative_j,
             stribeck_j,
+            rest_s: rest,
         })
     }
 
@@ -232,6 +233,11 @@ pub struct Prediction {
     /// deviation. `None` without a Stribeck law.
     #[serde(rename = "stribeck_J", skip_serializing_if = "Option::is_none")]
     pub stribeck_j: Option<f64>,
+    /// Time the motion rests, s: every joint slower than the least speed the identification
+    /// fitted (`min_speed_rad_s`; none for a model without one). The interval takes the error
+    /// the cross-validation pieces of a left-out log share (`structure_fold_W`) in proportion
+    /// to it, whole from [`tuning::FOLD_ERROR_REST_SHARE`] of the duration on.
+    pub rest_s: f64,
 }
 
 /// Predicted energy of a motion.
