@@ -396,6 +396,50 @@ fn per_motor_predicted_power_sums_to_the_total_with_payloads() {
     assert!((25..50).any(|k| (1..6).any(|i| still[i][k] != joints[i][k])));
 }
 
+/// A robot holds the payload it starts a motion with before the motion too: the power the
+/// power lag and an averaging meter's first period read before time 0 is the loaded arm's,
+/// while a payload picked up later leaves the arm bare before it.
+#[test]
+fn a_payload_the_motion_starts_with_is_held_before_it() {
+    use powertwin::model::builtin;
+    use powertwin::model::payload::PayloadEvent;
+    use powertwin::trajectory::Trajectory;
+    /// The arm standing still at one pose.
+    struct Still;
+    impl Trajectory for Still {
+        fn dof(&self) -> usize {
+            6
+        }
+        fn duration(&self) -> f64 {
+            2.0
+        }
+        fn sample(&self, _t: f64, q: &mut [f64], dq: &mut [f64], ddq: &mut [f64]) {
+            q.copy_from_slice(&[0.1, 0.5, -0.4, 0.3, 0.8, 0.2]);
+            dq.fill(0.0);
+            ddq.fill(0.0);
+        }
+    }
+    let robot = common::irb1200();
+    let model = true_pmsm_model(&robot);
+    let load = builtin::payload("load_2kg").unwrap();
+    let power = |from_s: f64, t: f64| {
+        let events = [PayloadEvent {
+            t_s: from_s,
+            payload: Some(load.clone()),
+        }];
+        model
+            .power_with_payloads(&robot, &Still, &events, 1.0, &[t])
+            .unwrap()[0]
+    };
+    let bare = model
+        .power_with_payloads(&robot, &Still, &[], 1.0, &[-0.05])
+        .unwrap()[0];
+    let loaded = power(0.0, 0.05);
+    assert!(loaded - bare > 1.0, "{loaded} {bare}");
+    assert_eq!(power(0.0, -0.05), loaded);
+    assert_eq!(power(1.0, 0.5), bare);
+}
+
 /// A motion unsure of a joint's Coulomb sign (`coulomb_signs` weighed down to `s`) gets the
 /// expected power of a sign that is +1 with chance `(1 + s) / 2`: the mean of the powers
 /// with either sign, for the model evaluated at the same state.
@@ -1247,5 +1291,35 @@ mod spline_route {
                 assert!((p.states.dq[0][k] - dq).abs() < 2e-3 * w, "{averaged} {k}");
             }
         }
+    }
+
+    /// The payload a log starts with is the one its identification takes before the first
+    /// sample (where the power lag and an averaging meter's first period reach); a payload
+    /// added later is taken from its own time.
+    #[test]
+    fn a_log_holds_the_payload_it_starts_with_before_its_first_sample() {
+        use powertwin::identification::data::{Route, prepare};
+        use powertwin::measurement::{Log, PowerSignal};
+        use powertwin::model::builtin;
+        use powertwin::model::payload::PayloadEvent;
+        let t: Vec<f64> = (0..60).map(|k| 0.002 + k as f64 * 0.1).collect();
+        let log = |from_s: f64| Log {
+            source: "sine".into(),
+            robot: None,
+            q_rad: vec![t.iter().map(|s| 0.5 * (2.5 * s).sin()).collect()],
+            t_s: t.clone(),
+            dq_rad_s: None,
+            power_w: vec![0.0; t.len()],
+            signal: PowerSignal::Total,
+            motor_power_w: None,
+            power_averaged: true,
+            payloads: vec![PayloadEvent {
+                t_s: from_s,
+                payload: Some(builtin::payload("load_2kg").unwrap()),
+            }],
+        };
+        let from = |from_s: f64| prepare(&log(from_s), Route::Spline).unwrap().payloads[0].t_s;
+        assert_eq!(from(0.0), f64::NEG_INFINITY);
+        assert_eq!(from(3.0), 3.0);
     }
 }

@@ -8,7 +8,7 @@ use crate::identification::states::{
     REST_SPEED, States, from_fourier, from_smoothing, from_spline,
 };
 use crate::measurement::{Log, PowerSignal};
-use crate::model::payload::PayloadEvent;
+use crate::model::payload::{PayloadEvent, carried_from_before};
 use crate::trajectory::Trajectory;
 use crate::trajectory::sampled::Sampled;
 
@@ -59,7 +59,8 @@ pub struct Prepared {
     pub signal: PowerSignal,
     /// Per-motor power, sample-major `[m * n + i]`, W (empty when not logged).
     pub p_joint: Vec<f64>,
-    /// Known payloads at the flange, sorted by time.
+    /// Known payloads at the flange, sorted by time; the one the log starts with is in force
+    /// from `-inf` ([`carried_from_before`]).
     pub payloads: Vec<PayloadEvent>,
     /// Joints that move (range of the logged position above [`EXCITED_RANGE`]), 0-based.
     pub excited: Vec<usize>,
@@ -299,7 +300,7 @@ pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepa
         p_total: log.power_w.clone(),
         signal: log.signal,
         p_joint,
-        payloads: log.payloads.clone(),
+        payloads: carried_from_before(&log.payloads, t[0]),
         excited,
         power_averaged: log.power_averaged,
     })

@@ -52,6 +52,24 @@ pub struct PayloadEvent {
     pub payload: Option<Payload>,
 }
 
+/// The timeline `events` (sorted by time) with what the flange carries at `start_s` (s) in
+/// force from `-inf`: a robot holds the payload it starts a log or a motion with before that
+/// too, and the power lag and an averaging meter's first period reach back there. Events
+/// after `start_s` are kept as they are; with none at or before it, the flange is bare
+/// before the first.
+pub fn carried_from_before(events: &[PayloadEvent], start_s: f64) -> Vec<PayloadEvent> {
+    let after = events.partition_point(|e| e.t_s <= start_s);
+    let mut out = Vec::with_capacity(events.len() - after + 1);
+    if after > 0 {
+        out.push(PayloadEvent {
+            t_s: f64::NEG_INFINITY,
+            payload: events[after - 1].payload.clone(),
+        });
+    }
+    out.extend_from_slice(&events[after..]);
+    out
+}
+
 /// Refuse a payload above the robot's rated payload: `mass_kg` (tool and load at the flange,
 /// kg) against `rated_kg` (kg, from the drive file; `None` = no rating, nothing to check).
 /// `what` names the payload in the message.
@@ -235,9 +253,10 @@ struct TimelineFile {
 /// t_s = 7.5
 /// payload = "none"            # nothing on the flange from here on
 /// ```
-/// Times in s on the log's clock; each payload applies until the next event. Errors
-/// ([`Error::Toml`]): malformed TOML, unknown keys, non-finite or decreasing times, unknown
-/// payloads.
+/// Times in s on the log's clock; each payload applies until the next event, and the one in
+/// force at the log's first sample was at the flange before it too ([`carried_from_before`]).
+/// Errors ([`Error::Toml`]): malformed TOML, unknown keys, non-finite or decreasing times,
+/// unknown payloads.
 pub fn timeline_from_toml_str(text: &str, label: &str, dir: &Path) -> Result<Vec<PayloadEvent>> {
     let err = |message: String| Error::Toml {
         file: label.to_string(),
@@ -272,4 +291,39 @@ pub fn timeline_from_file(path: &Path) -> Result<Vec<PayloadEvent>> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let dir = path.parent().unwrap_or(Path::new("."));
     timeline_from_toml_str(&text, &path.display().to_string(), dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn event(t_s: f64, kg: Option<f64>) -> PayloadEvent {
+        PayloadEvent {
+            t_s,
+            payload: kg.map(|m| Payload::cube("load", m, Vector3::zeros()).unwrap()),
+        }
+    }
+
+    #[test]
+    fn the_payload_a_log_starts_with_is_carried_before_it() {
+        let mass = |e: &[PayloadEvent]| -> Vec<(f64, Option<f64>)> {
+            e.iter()
+                .map(|e| (e.t_s, e.payload.as_ref().map(|p| p.inertia.mass)))
+                .collect()
+        };
+        let timeline = [event(0.0, Some(2.0)), event(5.0, None)];
+        // In force at the start (0.002 s): from -inf; the later change as it was.
+        assert_eq!(
+            mass(&carried_from_before(&timeline, 0.002)),
+            [(f64::NEG_INFINITY, Some(2.0)), (5.0, None)]
+        );
+        // Of two changes before the start, the later one is what the robot starts with.
+        assert_eq!(
+            mass(&carried_from_before(&timeline, 6.0)),
+            [(f64::NEG_INFINITY, None)]
+        );
+        // A first change after the start leaves the flange bare before it.
+        assert_eq!(mass(&carried_from_before(&timeline, -1.0)), mass(&timeline));
+        assert!(carried_from_before(&[], 0.0).is_empty());
+    }
 }

@@ -10,7 +10,7 @@ use crate::dynamics::regressor::regressor;
 use crate::dynamics::{Workspace, sign};
 use crate::error::{Error, Result};
 use crate::model::Robot;
-use crate::model::payload::PayloadEvent;
+use crate::model::payload::{PayloadEvent, carried_from_before};
 use crate::trajectory::Trajectory;
 
 impl PowerModel {
@@ -152,8 +152,8 @@ impl PowerModel {
     }
 
     /// This model carrying the payloads of `events`, each from its time on (this model before
-    /// the first), with each payload's mass, kg; `base` the base-parameter set (needed only
-    /// with events).
+    /// the first; the one in force at time 0 from `-inf`), with each payload's mass, kg;
+    /// `base` the base-parameter set (needed only with events).
     fn payload_models(
         &self,
         robot: &Robot,
@@ -162,7 +162,8 @@ impl PowerModel {
         base: Option<&BaseParams>,
     ) -> Result<Vec<(f64, PowerModel, f64)>> {
         let mut models = vec![(f64::NEG_INFINITY, self.clone(), 0.0)];
-        for e in events {
+        // What the motion starts with, it carried before its time 0 too.
+        for e in &carried_from_before(events, 0.0) {
             let model = match (&e.payload, base) {
                 (Some(p), Some(base)) => self.with_payload_on(base, robot, p, efficiency)?,
                 _ => self.clone(),
