@@ -34,6 +34,7 @@ mod runs_manifest;
 mod sampled;
 mod sampling;
 mod simulate_cli;
+mod spline_route;
 mod task;
 mod trajectory;
 mod twin;
