@@ -78,3 +78,42 @@ fn docs_results_come_from_the_default_run() {
         Some(30)
     );
 }
+
+/// README's journey 1 shows the held-out benchmark's first lines as `reproduce` prints them:
+/// each must be that of `docs/results.json` (a changed figure leaves no stale line behind).
+#[test]
+fn readme_journey_1_lines_are_those_of_docs_results_json() {
+    let json: serde_json::Value =
+        serde_json::from_str(&read("docs/results.json")).expect("docs/results.json parses");
+    let readme = read("README.md");
+    let journey = readme
+        .split("\n## Journey 1: reproduce the paper\n")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("README.md has a '## Journey 1: reproduce the paper' section");
+    for (name, key) in [
+        ("from the log ", "from_log"),
+        ("from the plan", "from_plan"),
+        ("baseline     ", "baseline"),
+    ] {
+        let s = &json["heldout"][key];
+        let f = |path: [&str; 2]| s[path[0]][path[1]].as_f64().expect("a figure");
+        let expected = format!(
+            "  {name}: energy error median {:.3} %, worst {:.3} %; above standby worst {:.3} %; 95 % interval coverage {:.0} %",
+            f(["energy_error_pct", "median"]),
+            f(["energy_error_pct", "worst"]),
+            f(["above_standby_error_pct", "worst"]),
+            s["coverage_pct"].as_f64().expect("coverage"),
+        );
+        let line = journey
+            .lines()
+            .find(|l| l.starts_with(&format!("  {name}:")))
+            .unwrap_or_else(|| panic!("README's journey 1 has no '{name}' line"));
+        let shown = line.strip_suffix(" [...]").unwrap_or(line);
+        assert!(
+            expected.starts_with(shown) && shown.len() > name.len() + 40,
+            "README's journey 1 line is not what reproduce prints from docs/results.json:\n  \
+             README:   {line}\n  expected: {expected}"
+        );
+    }
+}
