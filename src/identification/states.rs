@@ -218,21 +218,48 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
     let stretches = stretches(&rest);
     let sigma = noise_levels(q, &rest);
     let jitter = rest_jitter(q, &rest);
-    // Each rest's samples, less the edge samples the motions next to it have already moved,
-    // held at their mean; and the instants inside the sample intervals next to it at which
-    // those motions leave and reach it (keyed by the motion's sample next to the rest).
+    let (leave, reach) = hold_rests(t, q, &stretches, &jitter, &mut s);
+    let extra = spline_moves(t, q, &stretches, &sigma, (&leave, &reach), &mut s)?;
+    let knots = with_knots(&s, &extra);
+    // The noise the log shows at its rests; where it has none to show, at least the assumed.
+    let floor = if rests_show_noise(&rest) {
+        0.0
+    } else {
+        ASSUMED_ENCODER_NOISE
+    };
+    let noise: Vec<f64> = sigma.iter().map(|s| s.max(floor)).collect();
+    let move_weights = knot_weights(t, &knots, move_weights(t, q, &s.dq, &noise));
+    Ok(SplineRoute {
+        states: s,
+        knots,
+        move_weights,
+    })
+}
+
+/// The first stage of [`from_spline`]: each rest's samples, less the edge samples the motions
+/// next to it have already moved, held at their mean in `s`; returns the instants inside the
+/// sample intervals next to each rest at which those motions leave and reach it, keyed by
+/// the motion's sample next to the rest. `jitter`: each joint's [`rest_jitter`].
+fn hold_rests(
+    t: &[f64],
+    q: &[Vec<f64>],
+    stretches: &[(bool, usize, usize)],
+    jitter: &[f64],
+    s: &mut States,
+) -> (Vec<Option<Edge>>, Vec<Option<Edge>>) {
+    let m = t.len();
     let mut leave: Vec<Option<Edge>> = vec![None; m];
     let mut reach: Vec<Option<Edge>> = vec![None; m];
     for &(_, first, last) in stretches.iter().filter(|r| r.0) {
         let (mut a, mut b) = (first, last);
         let moved_start = b + 1 < m
             && b > a
-            && edge_moved(t, q, &jitter, b, a..b, b + 1, (b + 2 < m).then_some(b + 2));
+            && edge_moved(t, q, jitter, b, a..b, b + 1, (b + 2 < m).then_some(b + 2));
         if moved_start {
             b -= 1;
         }
         let moved_stop =
-            a > 0 && a < b && edge_moved(t, q, &jitter, a, a + 1..b + 1, a - 1, a.checked_sub(2));
+            a > 0 && a < b && edge_moved(t, q, jitter, a, a + 1..b + 1, a - 1, a.checked_sub(2));
         if moved_stop {
             a += 1;
         }
@@ -244,18 +271,18 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
             x[a..=b].fill(*mean);
         }
         // The motion after the rest: its first moving sample `b + 1` and the next.
-        if b + 2 < m && (moved_start || b + 2 <= next_rest(&stretches, last)) {
+        if b + 2 < m && (moved_start || b + 2 <= next_rest(stretches, last)) {
             let f = b + 1;
-            let fraction = edge_fraction(t, q, &jitter, &means, b, f, f + 1);
+            let fraction = edge_fraction(t, q, jitter, &means, b, f, f + 1);
             leave[if moved_start { f } else { b }] = edge_instant(t, b, f, fraction, moved_start)
                 .map(|at| Edge {
                     at,
                     held: means.clone(),
                 });
         }
-        if a >= 2 && (moved_stop || a - 2 >= previous_rest(&stretches, first)) {
+        if a >= 2 && (moved_stop || a - 2 >= previous_rest(stretches, first)) {
             let f = a - 1;
-            let fraction = edge_fraction(t, q, &jitter, &means, a, f, f - 1);
+            let fraction = edge_fraction(t, q, jitter, &means, a, f, f - 1);
             reach[if moved_stop { f } else { a }] = edge_instant(t, a, f, fraction, moved_stop)
                 .map(|at| Edge {
                     at,
@@ -263,6 +290,23 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
                 });
         }
     }
+    (leave, reach)
+}
+
+/// The second stage of [`from_spline`]: each motion between rests (of `stretches`) in `s`,
+/// the least-jerk smoothing spline of its samples through the instants at which it leaves
+/// and reaches its rests (`edges`: leave, reach, from [`hold_rests`]); returns those
+/// instants' edges.
+fn spline_moves<'a>(
+    t: &[f64],
+    q: &[Vec<f64>],
+    stretches: &[(bool, usize, usize)],
+    sigma: &[f64],
+    edges: (&'a [Option<Edge>], &'a [Option<Edge>]),
+    s: &mut States,
+) -> Result<Vec<&'a Edge>> {
+    let m = t.len();
+    let (leave, reach) = edges;
     // A motion next to a rest starts or stops there, and so does one that the log's first
     // samples show starting from rest ([`starts_from_rest`]). At a log end it runs on beyond
     // the log (free), unless the free spline's end speed is one the samples do not support
@@ -287,7 +331,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
             s.q.iter_mut()
                 .zip(&mut s.dq)
                 .zip(&mut s.ddq)
-                .zip(&sigma)
+                .zip(sigma)
                 .enumerate()
         {
             let mut samples = Vec::with_capacity(len);
@@ -321,18 +365,16 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
             a[lo..=hi].copy_from_slice(&acc[on_samples]);
         }
     }
-    let knots = with_knots(&s, &extra);
-    // The noise the log shows at its rests; where it has none to show, at least the assumed.
-    let floor = if rests_show_noise(&rest) {
-        0.0
-    } else {
-        ASSUMED_ENCODER_NOISE
-    };
-    let noise: Vec<f64> = sigma.iter().map(|s| s.max(floor)).collect();
-    let at_samples = move_weights(t, q, &s.dq, &noise);
-    // The knots are the sample times and the instants inside intervals (weight 1: the motion
-    // next to them is seen from its own samples).
-    let move_weights = at_samples
+    Ok(extra)
+}
+
+/// The last stage of [`from_spline`]: the move weights at the route's knots from those at the
+/// samples `t` (`at_samples[i][sample]`). The knots are the sample times and the instants
+/// inside intervals, which get weight 1: the motion next to them is seen from its own
+/// samples.
+fn knot_weights(t: &[f64], knots: &States, at_samples: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    let m = t.len();
+    at_samples
         .iter()
         .map(|w| {
             let mut sample = 0;
@@ -349,12 +391,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
                 })
                 .collect()
         })
-        .collect();
-    Ok(SplineRoute {
-        states: s,
-        knots,
-        move_weights,
-    })
+        .collect()
 }
 
 /// Encoder noise (rad) the rest test is built for ([`REST_SPEED`] x [`REST_WINDOW_S`] is
