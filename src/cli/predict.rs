@@ -119,49 +119,81 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
         prepared.push(p);
     }
     if let Some(path) = &args.power_out {
-        let signal = model.signal.name();
-        let mut csv = format!("log,t_s,measured_{signal}_W,predicted_{signal}_W\n");
-        for (k, r) in rows.iter().enumerate() {
-            for ((t, y), p) in r.t_s.iter().zip(&r.measured_w).zip(&r.predicted_w) {
-                let _ = writeln!(csv, "{},{t},{y},{p}", k + 1);
-            }
-        }
-        write_atomic(path, csv.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_power_csv(path, &model, &rows)?;
     }
     #[cfg(feature = "viz")]
     if let Some(viz) = &viz {
-        use powertwin::viz::{DEFAULT_DISPLAY_HZ, Tab};
-        let prefix = |k: usize| format!("predict/log{}", k + 1);
-        let tabs: Vec<Tab> = rows
-            .iter()
-            .enumerate()
-            .map(|(k, r)| Tab::Run {
-                title: r.source.clone(),
-                prefix: prefix(k),
-                joints: robot.dof(),
-            })
-            .collect();
-        viz.send_blueprint(&tabs)?;
-        for (k, (log, p)) in logs.iter().zip(&prepared).enumerate() {
-            viz.log_measurement(&robot, log, &prefix(k))?;
-            // The model's power along the route, between the samples too.
-            let steps = (p.motion.duration() * DEFAULT_DISPLAY_HZ).ceil().max(1.0) as usize;
-            let t: Vec<f64> = (0..=steps)
-                .map(|j| p.motion.duration() * j as f64 / steps as f64)
-                .collect();
-            let joints = model.joint_powers_with_payloads(
-                &robot,
-                p.motion.as_ref(),
-                &p.motion_events(),
-                DATASHEET_EFFICIENCY,
-                &t,
-            )?;
-            let t_log: Vec<f64> = t.iter().map(|t| t + p.motion_t0_s).collect();
-            viz.log_prediction(&t_log, &joints, &prefix(k))?;
-        }
-        viz.flush()?;
+        show_predictions(viz, &robot, &model, &logs, &prepared, &rows)?;
     }
+    emit_log_prices(args.json, &model, &rows, simulated)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `predict --power-out`: the logged and predicted power at every logged sample of each log.
+fn write_power_csv(path: &std::path::Path, model: &PowerModel, rows: &[LogPrice]) -> Result<()> {
+    let signal = model.signal.name();
+    let mut csv = format!("log,t_s,measured_{signal}_W,predicted_{signal}_W\n");
+    for (k, r) in rows.iter().enumerate() {
+        for ((t, y), p) in r.t_s.iter().zip(&r.measured_w).zip(&r.predicted_w) {
+            let _ = writeln!(csv, "{},{t},{y},{p}", k + 1);
+        }
+    }
+    write_atomic(path, csv.as_bytes()).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+/// `predict --viz`: each log's measurement and the model's power along its route (between
+/// the samples too), one tab a log.
+#[cfg(feature = "viz")]
+fn show_predictions(
+    viz: &powertwin::viz::Viz,
+    robot: &Robot,
+    model: &PowerModel,
+    logs: &[powertwin::measurement::Log],
+    prepared: &[Prepared],
+    rows: &[LogPrice],
+) -> Result<()> {
+    use powertwin::viz::{DEFAULT_DISPLAY_HZ, Tab};
+    let prefix = |k: usize| format!("predict/log{}", k + 1);
+    let tabs: Vec<Tab> = rows
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Tab::Run {
+            title: r.source.clone(),
+            prefix: prefix(k),
+            joints: robot.dof(),
+        })
+        .collect();
+    viz.send_blueprint(&tabs)?;
+    for (k, (log, p)) in logs.iter().zip(prepared).enumerate() {
+        viz.log_measurement(robot, log, &prefix(k))?;
+        // The model's power along the route, between the samples too.
+        let steps = (p.motion.duration() * DEFAULT_DISPLAY_HZ).ceil().max(1.0) as usize;
+        let t: Vec<f64> = (0..=steps)
+            .map(|j| p.motion.duration() * j as f64 / steps as f64)
+            .collect();
+        let joints = model.joint_powers_with_payloads(
+            robot,
+            p.motion.as_ref(),
+            &p.motion_events(),
+            DATASHEET_EFFICIENCY,
+            &t,
+        )?;
+        let t_log: Vec<f64> = t.iter().map(|t| t + p.motion_t0_s).collect();
+        viz.log_prediction(&t_log, &joints, &prefix(k))?;
+    }
+    viz.flush()?;
+    Ok(())
+}
+
+/// The predictions of the logs (`rows`) as text or JSON; `simulated`: the twin's energy over
+/// the logged span, for scoring, when one dataset was predicted.
+fn emit_log_prices(
+    json_out: bool,
+    model: &PowerModel,
+    rows: &[LogPrice],
+    simulated: Option<f64>,
+) -> Result<()> {
     let pct = |a: f64, b: f64| 100.0 * (a - b) / b;
     let json_rows: Vec<serde_json::Value> = rows
         .iter()
@@ -185,7 +217,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
             v
         })
         .collect();
-    if args.json {
+    if json_out {
         let out = if json_rows.len() == 1 {
             json_rows[0].clone()
         } else {
@@ -194,7 +226,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
         super::emit(&format!("{}\n", serde_json::to_string_pretty(&out)?))?;
     } else {
         let mut o = String::new();
-        for r in &rows {
+        for r in rows {
             let pred = &r.prediction;
             let sim = match (simulated, rows.len()) {
                 (Some(s), 1) => format!(", simulated {s:.2} J ({:+.3} %)", pct(pred.energy_j, s)),
@@ -214,7 +246,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
         }
         super::emit(&o)?;
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }
 
 /// `predict --trajectory` or `--scenario`: price a plan nobody has run.
