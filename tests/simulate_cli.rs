@@ -31,21 +31,6 @@ fn trajectory(path: &Path, scale: f64, nan_row: Option<usize>) {
     std::fs::write(path, text).unwrap();
 }
 
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut v: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    v.sort();
-    v
-}
-
 #[test]
 fn simulate_writes_a_dataset_and_reruns_are_byte_identical() {
     let traj = tmp("traj.csv");
@@ -66,7 +51,7 @@ fn simulate_writes_a_dataset_and_reruns_are_byte_identical() {
         assert_eq!(code, 0, "{err}");
         assert!(err.contains("real time"), "{err}");
     }
-    assert_eq!(files(&a), files(&b));
+    assert_eq!(common::dir_files(&a), common::dir_files(&b));
     let ds = Dataset::read(&a).unwrap();
     assert_eq!(ds.truth.len(), 2000);
     assert_eq!(ds.measured.t.len(), 20);
@@ -177,12 +162,16 @@ fn shards_union_to_the_unsharded_set() {
         ("item_000001", &b),
         ("item_000002", &a),
     ] {
-        assert_eq!(files(&all.join(item)), files(&shard.join(item)), "{item}");
+        assert_eq!(
+            common::dir_files(&all.join(item)),
+            common::dir_files(&shard.join(item)),
+            "{item}"
+        );
     }
     // Items differ from each other, and a rerun skips what exists.
     assert_ne!(
-        files(&all.join("item_000000")),
-        files(&all.join("item_000001"))
+        common::dir_files(&all.join("item_000000")),
+        common::dir_files(&all.join("item_000001"))
     );
     let (code, _, err) = powertwin(&[
         "dataset",

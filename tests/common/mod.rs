@@ -77,6 +77,23 @@ pub fn run_ok(args: &[&str]) -> String {
 }
 
 /// A path `name` in the scratch directory of this test binary: `powertwin-<binary>` under
+/// Every file of directory `dir` (not its subdirectories' contents) as name and bytes,
+/// sorted by name.
+pub fn dir_files(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
 /// Cargo's `CARGO_TARGET_TMPDIR` (inside the target directory, so `cargo clean` removes it),
 /// emptied when the binary first asks for it. Each run of a test binary replaces its
 /// predecessor's files instead of leaving them behind (the reproduce tests write hundreds of

@@ -35,17 +35,7 @@ fn written_dataset(format: Format, name: &str) -> (PathBuf, Vec<(String, Vec<u8>
     .unwrap();
     let dir = common::tmp(name);
     ds.write(&dir, format).unwrap();
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
+    let files = common::dir_files(&dir);
     assert!(Dataset::read(&dir).is_ok());
     (dir, files)
 }
