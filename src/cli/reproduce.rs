@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use powertwin::Robot;
 use powertwin::dataset::Format;
 use powertwin::dataset::meta::Urdf;
 use powertwin::identification::model::DATASHEET_EFFICIENCY;
@@ -88,6 +89,51 @@ const RECORDING_FILE: &str = "powertwin.rrd";
 /// Run everything and write the report.
 pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     let start = Instant::now();
+    let (robot, drive) = builtin_robot()?;
+    let (twin, sensor) = twin_and_sensor(args)?;
+    let plant = args.truth.plant(&robot, &drive, &twin, &sensor)?;
+    let rig = Rig {
+        plant: plant.as_ref(),
+        robot: &robot,
+        urdf: Urdf::inline(builtin::IRB1200_URDF),
+        drive: &drive,
+        twin,
+        sensor,
+    };
+    let plan = experiment_plan(args, &drive)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    #[cfg(feature = "viz")]
+    let viz = args.viz.open(Some(&args.out.join(RECORDING_FILE)))?;
+
+    let bars = Bars::new();
+    let mut outcome = run_plan(&rig, &plan, &bars)?;
+    bars.finish();
+
+    let writing = Instant::now();
+    write_datasets(&outcome, &args.out.join("datasets"), args.format)?;
+    write_model(&outcome, &args.out)?;
+    let plots = write_charts(&robot, &outcome, &args.out)?;
+    outcome.timings.push(StageTime {
+        stage: "datasets and charts written".into(),
+        wall_s: writing.elapsed().as_secs_f64(),
+    });
+    #[cfg(feature = "viz")]
+    if let Some(viz) = &viz {
+        log_recording(viz, &robot, &plan, &mut outcome)?;
+    }
+    let results = Results::new(
+        &outcome,
+        settings(args, &rig),
+        start.elapsed().as_secs_f64(),
+    );
+    write_results(args, &results, &plots)?;
+    emit(&summary(&results, &args.out))?;
+    Ok(args.overload.exit_for(&results.sweep.cells).into())
+}
+
+/// The built-in IRB 1200 robot and its drive data.
+fn builtin_robot() -> Result<(Robot, Drive)> {
     let robot = load_str(builtin::IRB1200_URDF, &LoadOptions::default())
         .context("loading the built-in IRB 1200 model")?;
     let drive = Drive::from_toml_str(
@@ -95,6 +141,11 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         "built-in irb1200_7_70.drive.toml",
         &robot,
     )?;
+    Ok((robot, drive))
+}
+
+/// The twin's physics, motor and controller settings and the logger's, from the options.
+fn twin_and_sensor(args: &ReproduceArgs) -> Result<(TwinConfig, SensorSettings)> {
     let noise = noise_settings(args.noise.as_deref())?;
     let twin = TwinConfig {
         physics: PhysicsSettings {
@@ -114,15 +165,12 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         seed: args.noise_seed,
         ..SensorSettings::default()
     };
-    let plant = args.truth.plant(&robot, &drive, &twin, &sensor)?;
-    let rig = Rig {
-        plant: plant.as_ref(),
-        robot: &robot,
-        urdf: Urdf::inline(builtin::IRB1200_URDF),
-        drive: &drive,
-        twin,
-        sensor,
-    };
+    Ok((twin, sensor))
+}
+
+/// The experiment plan with the chosen scenario, its payload at every load level (kg)
+/// checked against the drive's rating.
+fn experiment_plan(args: &ReproduceArgs, drive: &Drive) -> Result<Plan> {
     let mut plan = Plan::irb1200(args.quick)?;
     if let Some(path) = &args.scenario {
         plan.scenario = Scenario::from_file(path)?;
@@ -130,21 +178,16 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
     for &load in &plan.scenario.sweep.loads_kg {
         args.overload.check_payload(
             plan.scenario.max_payload_kg(load),
-            &drive,
+            drive,
             &format!("scenario '{}' at load level {load} kg", plan.scenario.name),
         )?;
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    #[cfg(feature = "viz")]
-    let viz = args.viz.open(Some(&args.out.join(RECORDING_FILE)))?;
+    Ok(plan)
+}
 
-    let bars = Bars::new();
-    let outcome = run_plan(&rig, &plan, &bars)?;
-    bars.finish();
-
-    let writing = Instant::now();
-    write_datasets(&outcome, &args.out.join("datasets"), args.format)?;
+/// Write `<out>/model.json`: the identified model with its method, estimate and
+/// cross-validation scores.
+fn write_model(outcome: &Outcome, out: &Path) -> Result<()> {
     let model_json = serde_json::json!({
         "method": outcome.model_name(),
         "model": &outcome.model,
@@ -152,11 +195,17 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         "cross_validation": &outcome.idset.selection.scores,
     });
     powertwin::io::write_atomic(
-        &args.out.join("model.json"),
+        &out.join("model.json"),
         serde_json::to_string_pretty(&model_json)?.as_bytes(),
     )?;
-    let figs = figures(&robot, &outcome, DATASHEET_EFFICIENCY)?;
-    let plots_dir = args.out.join("plots");
+    Ok(())
+}
+
+/// Write the report's charts under `<out>/plots`; returns each chart's path relative to
+/// `out` (without extension) and its caption.
+fn write_charts(robot: &Robot, outcome: &Outcome, out: &Path) -> Result<Vec<(String, String)>> {
+    let figs = figures(robot, outcome, DATASHEET_EFFICIENCY)?;
+    let plots_dir = out.join("plots");
     std::fs::create_dir_all(&plots_dir)
         .with_context(|| format!("creating {}", plots_dir.display()))?;
     let mut plots = Vec::with_capacity(figs.len());
@@ -165,29 +214,37 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
             .with_context(|| format!("writing chart {}", f.stem))?;
         plots.push((format!("plots/{}", f.stem), f.caption.clone()));
     }
-    let mut outcome = outcome;
+    Ok(plots)
+}
+
+/// Log the run to the Rerun recording and add the time it took to the outcome's timings.
+#[cfg(feature = "viz")]
+fn log_recording(
+    viz: &powertwin::viz::Viz,
+    robot: &Robot,
+    plan: &Plan,
+    outcome: &mut Outcome,
+) -> Result<()> {
+    let logging = Instant::now();
+    viz.log_reproduce(
+        robot,
+        plan,
+        outcome,
+        DATASHEET_EFFICIENCY,
+        powertwin::viz::DEFAULT_DISPLAY_HZ,
+    )?;
+    viz.flush()?;
     outcome.timings.push(StageTime {
-        stage: "datasets and charts written".into(),
-        wall_s: writing.elapsed().as_secs_f64(),
+        stage: format!("Rerun recording written ({RECORDING_FILE})"),
+        wall_s: logging.elapsed().as_secs_f64(),
     });
-    #[cfg(feature = "viz")]
-    if let Some(viz) = &viz {
-        let logging = Instant::now();
-        viz.log_reproduce(
-            &robot,
-            &plan,
-            &outcome,
-            DATASHEET_EFFICIENCY,
-            powertwin::viz::DEFAULT_DISPLAY_HZ,
-        )?;
-        viz.flush()?;
-        outcome.timings.push(StageTime {
-            stage: format!("Rerun recording written ({RECORDING_FILE})"),
-            wall_s: logging.elapsed().as_secs_f64(),
-        });
-    }
-    let settings = Settings {
-        robot: robot.name().to_string(),
+    Ok(())
+}
+
+/// The run's settings as the results record them.
+fn settings(args: &ReproduceArgs, rig: &Rig) -> Settings {
+    Settings {
+        robot: rig.robot.name().to_string(),
         motor_model: args.motor.name().to_string(),
         truth: args.truth.truth.to_string(),
         power_signal: rig.logger().power_signal.name().to_string(),
@@ -197,21 +254,28 @@ pub fn run(args: &ReproduceArgs) -> Result<ExitCode> {
         noise: rig.logger().noise != NoiseSettings::NONE,
         noise_seed: args.noise_seed,
         quick: args.quick,
-    };
-    let results = Results::new(&outcome, settings, start.elapsed().as_secs_f64());
-    let json = serde_json::to_string_pretty(&results).context("serialising results.json")?;
+    }
+}
+
+/// Write `results.json`, `report.md` (with the charts `plots`) and `results.md` under
+/// `--out`.
+fn write_results(
+    args: &ReproduceArgs,
+    results: &Results,
+    plots: &[(String, String)],
+) -> Result<()> {
+    let json = serde_json::to_string_pretty(results).context("serialising results.json")?;
     powertwin::io::write_atomic(&args.out.join("results.json"), json.as_bytes())?;
     powertwin::io::write_atomic(
         &args.out.join("report.md"),
-        render(&results, &plots).as_bytes(),
+        render(results, plots).as_bytes(),
     )?;
-    let value = serde_json::to_value(&results).context("serialising results.md's input")?;
+    let value = serde_json::to_value(results).context("serialising results.md's input")?;
     powertwin::io::write_atomic(
         &args.out.join("results.md"),
         results_markdown(&value, &command_line(args)).as_bytes(),
     )?;
-    emit(&summary(&results, &args.out))?;
-    Ok(args.overload.exit_for(&results.sweep.cells).into())
+    Ok(())
 }
 
 /// The command line that gives this run's figures: `powertwin reproduce` and every option that
@@ -279,6 +343,27 @@ fn write_datasets(outcome: &Outcome, dir: &Path, format: Format) -> Result<()> {
 
 /// What the terminal shows at the end.
 fn summary(r: &Results, out: &Path) -> String {
+    let mut o = heldout_summary(r);
+    o.push_str(&family_summary(r));
+    o.push_str(&in_sample_summary(r));
+    o.push_str(&sweep_summary(r));
+    let recording = if cfg!(feature = "viz") {
+        ", powertwin.rrd"
+    } else {
+        ""
+    };
+    outln!(
+        o,
+        "Wrote {}/report.md, results.md, results.json, model.json{recording}, plots/ and datasets/ in {:.1} s.",
+        out.display(),
+        r.total_wall_s
+    );
+    o
+}
+
+/// The held-out benchmark's lines: energy errors (%) and interval coverage from the log,
+/// from the plan and of the baseline, and the worst power RMSE (W).
+fn heldout_summary(r: &Results) -> String {
     let mut o = String::new();
     let h = &r.heldout;
     outln!(
@@ -311,6 +396,13 @@ fn summary(r: &Results, out: &Path) -> String {
         h.plan_power_rmse_w.worst,
         h.baseline_power_rmse_w.worst
     );
+    o
+}
+
+/// The robot family's lines: pooled energy errors (%) and interval coverage from the log
+/// and from the plan.
+fn family_summary(r: &Results) -> String {
+    let mut o = String::new();
     let f = &r.family;
     outln!(
         o,
@@ -332,6 +424,13 @@ fn summary(r: &Results, out: &Path) -> String {
             f.worst_robot_coverage_pct
         );
     }
+    o
+}
+
+/// The in-sample lines: Table 3's step errors, each estimator's worst step and Table 4's
+/// cases (energy errors, %).
+fn in_sample_summary(r: &Results) -> String {
+    let mut o = String::new();
     outln!(o, "In-sample (each predicted on its own fitting data):");
     outln!(
         o,
@@ -361,6 +460,13 @@ fn summary(r: &Results, out: &Path) -> String {
             c.known_payload_error_pct
         );
     }
+    o
+}
+
+/// The sweep's lines: its worst energy error (%) and, per load level (kg), the speed (m/s)
+/// of least energy on the twin's grid and the model's optimum.
+fn sweep_summary(r: &Results) -> String {
+    let mut o = String::new();
     let worst = r
         .sweep
         .cells
@@ -388,17 +494,6 @@ fn summary(r: &Results, out: &Path) -> String {
             planner_limit(opt)
         );
     }
-    let recording = if cfg!(feature = "viz") {
-        ", powertwin.rrd"
-    } else {
-        ""
-    };
-    outln!(
-        o,
-        "Wrote {}/report.md, results.md, results.json, model.json{recording}, plots/ and datasets/ in {:.1} s.",
-        out.display(),
-        r.total_wall_s
-    );
     o
 }
 

@@ -46,7 +46,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::model::{Friction, Robot};
+use crate::model::{Friction, Joint, Robot};
 
 /// Drive data of one joint, link side.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -246,6 +246,32 @@ struct JointEntry {
     gear_friction_braking: Option<f64>,
 }
 
+impl JointEntry {
+    /// The entry's drive data for `joint` (link side), with the URDF friction of `joint` where
+    /// the entry gives none and the braking gear friction equal to the driving one where it
+    /// gives none.
+    fn drive(&self, joint: &Joint) -> JointDrive {
+        JointDrive {
+            rotor_inertia: self.rotor_inertia_kgm2,
+            efficiency: self.efficiency,
+            copper_loss: self.copper_loss,
+            standby_power: self.standby,
+            friction: Friction {
+                coulomb: self.coulomb.unwrap_or(joint.friction.coulomb),
+                viscous: self.viscous.unwrap_or(joint.friction.viscous),
+            },
+            unmodelled: Unmodelled {
+                iron_hysteresis: self.iron_hysteresis,
+                iron_eddy: self.iron_eddy,
+                stribeck_static: self.stribeck_static,
+                stribeck_speed: self.stribeck_speed,
+                gear_friction: self.gear_friction,
+                gear_friction_braking: self.gear_friction_braking.unwrap_or(self.gear_friction),
+            },
+        }
+    }
+}
+
 impl Drive {
     /// Parse a drive file's text for `robot`. `label` names the file in error messages.
     ///
@@ -260,104 +286,14 @@ impl Drive {
         };
         let file: DriveFile =
             toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
-        if let Some(name) = &file.robot
-            && name != robot.name()
-        {
-            return Err(err(format!(
-                "the drive file is for robot '{name}' but the model is '{}'",
-                robot.name()
-            )));
-        }
-
-        if let Some(m) = file.rated_payload_kg
-            && !(m.is_finite() && m > 0.0)
-        {
-            return Err(err(format!(
-                "rated_payload_kg = {m}; it must be finite and positive"
-            )));
-        }
-        if let Some(b) = &file.brakes {
-            for (key, v) in [
-                ("power_W", b.power_w),
-                ("engage_s", b.engage_s),
-                ("release_s", b.release_s),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(err(format!("brakes.{key} = {v} must be finite and >= 0")));
-                }
-            }
-        }
-        let index: HashMap<&str, usize> = robot
-            .joints()
-            .iter()
-            .enumerate()
-            .map(|(i, j)| (j.name.as_str(), i))
-            .collect();
-        let mut slots: Vec<Option<&JointEntry>> = vec![None; robot.dof()];
-        let mut unknown = Vec::new();
-        let mut repeated = Vec::new();
-        for entry in &file.joint {
-            match index.get(entry.name.as_str()) {
-                None => unknown.push(format!("'{}'", entry.name)),
-                Some(&i) if slots[i].is_some() => repeated.push(format!("'{}'", entry.name)),
-                Some(&i) => slots[i] = Some(entry),
-            }
-        }
-        let missing: Vec<String> = robot
-            .joints()
-            .iter()
-            .zip(&slots)
-            .filter(|(_, s)| s.is_none())
-            .map(|(j, _)| format!("'{}'", j.name))
-            .collect();
-        let mut problems = Vec::new();
-        if !unknown.is_empty() {
-            let names: Vec<&str> = robot.joints().iter().map(|j| j.name.as_str()).collect();
-            problems.push(format!(
-                "unknown joint(s) {} (robot '{}' has {})",
-                unknown.join(", "),
-                robot.name(),
-                names.join(", ")
-            ));
-        }
-        if !repeated.is_empty() {
-            problems.push(format!(
-                "joint(s) listed more than once: {}",
-                repeated.join(", ")
-            ));
-        }
-        if !missing.is_empty() {
-            problems.push(format!("missing joint(s): {}", missing.join(", ")));
-        }
-        if !problems.is_empty() {
-            return Err(err(problems.join("; ")));
-        }
-
-        // No joint is missing (checked above), so the entries line up with the robot's joints.
-        let entries = slots.into_iter().flatten();
+        check_file_level(&file, robot).map_err(err)?;
+        let entries = entries_in_joint_order(&file.joint, robot).map_err(err)?;
         let joints = robot
             .joints()
             .iter()
             .zip(entries)
             .map(|(joint, e)| {
-                let drive = JointDrive {
-                    rotor_inertia: e.rotor_inertia_kgm2,
-                    efficiency: e.efficiency,
-                    copper_loss: e.copper_loss,
-                    standby_power: e.standby,
-                    friction: Friction {
-                        coulomb: e.coulomb.unwrap_or(joint.friction.coulomb),
-                        viscous: e.viscous.unwrap_or(joint.friction.viscous),
-                    },
-                    unmodelled: Unmodelled {
-                        iron_hysteresis: e.iron_hysteresis,
-                        iron_eddy: e.iron_eddy,
-                        stribeck_static: e.stribeck_static,
-                        stribeck_speed: e.stribeck_speed,
-                        gear_friction: e.gear_friction,
-                        gear_friction_braking: e.gear_friction_braking.unwrap_or(e.gear_friction),
-                    },
-                };
+                let drive = e.drive(joint);
                 check_joint(&drive).map_err(|m| err(format!("joint '{}': {m}", joint.name)))?;
                 Ok(drive)
             })
@@ -489,6 +425,93 @@ impl Drive {
     pub fn efficiency(&self) -> Vec<f64> {
         self.joints.iter().map(|j| j.efficiency).collect()
     }
+}
+
+/// Check the file-level keys against `robot`: the robot name when given, a finite positive
+/// rated payload (kg) and finite non-negative brake power (W) and times (s); or why not.
+fn check_file_level(file: &DriveFile, robot: &Robot) -> std::result::Result<(), String> {
+    if let Some(name) = &file.robot
+        && name != robot.name()
+    {
+        return Err(format!(
+            "the drive file is for robot '{name}' but the model is '{}'",
+            robot.name()
+        ));
+    }
+    if let Some(m) = file.rated_payload_kg
+        && !(m.is_finite() && m > 0.0)
+    {
+        return Err(format!(
+            "rated_payload_kg = {m}; it must be finite and positive"
+        ));
+    }
+    if let Some(b) = &file.brakes {
+        for (key, v) in [
+            ("power_W", b.power_w),
+            ("engage_s", b.engage_s),
+            ("release_s", b.release_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("brakes.{key} = {v} must be finite and >= 0"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The `[[joint]]` entries in robot joint order, one per joint; or every unknown, repeated
+/// and missing joint name in one message.
+fn entries_in_joint_order<'a>(
+    entries: &'a [JointEntry],
+    robot: &Robot,
+) -> std::result::Result<Vec<&'a JointEntry>, String> {
+    let index: HashMap<&str, usize> = robot
+        .joints()
+        .iter()
+        .enumerate()
+        .map(|(i, j)| (j.name.as_str(), i))
+        .collect();
+    let mut slots: Vec<Option<&JointEntry>> = vec![None; robot.dof()];
+    let mut unknown = Vec::new();
+    let mut repeated = Vec::new();
+    for entry in entries {
+        match index.get(entry.name.as_str()) {
+            None => unknown.push(format!("'{}'", entry.name)),
+            Some(&i) if slots[i].is_some() => repeated.push(format!("'{}'", entry.name)),
+            Some(&i) => slots[i] = Some(entry),
+        }
+    }
+    let missing: Vec<String> = robot
+        .joints()
+        .iter()
+        .zip(&slots)
+        .filter(|(_, s)| s.is_none())
+        .map(|(j, _)| format!("'{}'", j.name))
+        .collect();
+    let mut problems = Vec::new();
+    if !unknown.is_empty() {
+        let names: Vec<&str> = robot.joints().iter().map(|j| j.name.as_str()).collect();
+        problems.push(format!(
+            "unknown joint(s) {} (robot '{}' has {})",
+            unknown.join(", "),
+            robot.name(),
+            names.join(", ")
+        ));
+    }
+    if !repeated.is_empty() {
+        problems.push(format!(
+            "joint(s) listed more than once: {}",
+            repeated.join(", ")
+        ));
+    }
+    if !missing.is_empty() {
+        problems.push(format!("missing joint(s): {}", missing.join(", ")));
+    }
+    if !problems.is_empty() {
+        return Err(problems.join("; "));
+    }
+    // No joint is missing (checked above), so the entries line up with the robot's joints.
+    Ok(slots.into_iter().flatten().collect())
 }
 
 /// Range checks of one joint's values; the message names the TOML key.

@@ -382,119 +382,15 @@ fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
     let file: ScenarioFile =
         toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
 
-    let (tool, tcp_m) = if file.tool == NO_TOOL {
-        let Some(tcp) = file.tcp_m else {
-            return Err(err(format!(
-                "tool = \"{NO_TOOL}\" needs tcp_m, the TCP in the flange frame (m)"
-            )));
-        };
-        if !tcp.iter().all(|v| v.is_finite()) {
-            return Err(err(format!("tcp_m = {tcp:?} must be finite")));
-        }
-        (None, Vector3::from(tcp))
-    } else {
-        if file.tcp_m.is_some() {
-            return Err(err(format!(
-                "tcp_m applies only to tool = \"{NO_TOOL}\"; tool '{}' defines its own TCP",
-                file.tool
-            )));
-        }
-        let tool = if builtin::is_payload_name(&file.tool) {
-            builtin::payload(&file.tool)?
-        } else {
-            Payload::from_file(&dir.join(&file.tool))?
-        };
-        let Some(tcp) = tool.tcp else {
-            return Err(err(format!(
-                "tool '{}' defines no TCP (tcp_m); linear moves need one",
-                file.tool
-            )));
-        };
-        (Some(tool), tcp)
-    };
-
+    let (tool, tcp_m) = tool_and_tcp(&file, dir, err)?;
     if let Some(i) = file.seed_deg.iter().position(|v| !v.is_finite()) {
         return Err(err(format!("seed_deg[{}] must be finite", i + 1)));
     }
-
-    let mut points = BTreeMap::new();
-    for (name, p) in &file.points {
-        if !p.iter().all(|v| v.is_finite()) {
-            return Err(err(format!("points.{name} = {p:?} must be finite")));
-        }
-        points.insert(name.clone(), Vector3::from(*p));
-    }
-    if file.path.len() < 2 {
-        return Err(err(format!(
-            "path has {} via points; it needs at least 2 (the start and a target)",
-            file.path.len()
-        )));
-    }
-    for (k, name) in file.path.iter().enumerate() {
-        if !points.contains_key(name) {
-            let known: Vec<&str> = points.keys().map(String::as_str).collect();
-            return Err(err(format!(
-                "path[{}] = '{name}' is not a via point (defined in [points]: {})",
-                k + 1,
-                known.join(", ")
-            )));
-        }
-    }
-
+    let points = via_points(&file.points, &file.path).map_err(err)?;
     let orientation = orientation(&file.orientation).map_err(err)?;
-
-    let mut loads = file.loads;
-    loads.sort_by_key(|l| l.pick_at);
-    let steps = file.path.len();
-    for (k, l) in loads.iter().enumerate() {
-        if !(1 <= l.pick_at && l.pick_at < l.release_at && l.release_at <= steps) {
-            return Err(err(format!(
-                "load '{}': pick_at = {} and release_at = {} must satisfy \
-                 1 <= pick_at < release_at <= {steps} (steps of path)",
-                l.name, l.pick_at, l.release_at
-            )));
-        }
-        if !(l.mass_fraction.is_finite() && l.mass_fraction > 0.0) {
-            return Err(err(format!(
-                "load '{}': mass_fraction = {} must be finite and positive",
-                l.name, l.mass_fraction
-            )));
-        }
-        if k > 0 && l.pick_at < loads[k - 1].release_at {
-            return Err(err(format!(
-                "load '{}' is picked at step {} before load '{}' is released at step {}",
-                l.name,
-                l.pick_at,
-                loads[k - 1].name,
-                loads[k - 1].release_at
-            )));
-        }
-    }
-
+    let loads = sorted_loads(file.loads, file.path.len()).map_err(err)?;
     let sweep = file.sweep;
-    if sweep.speeds_m_s.is_empty() || sweep.loads_kg.is_empty() {
-        return Err(err(
-            "sweep.speeds_m_s and sweep.loads_kg need at least one value each".into(),
-        ));
-    }
-    if let Some(v) = sweep
-        .speeds_m_s
-        .iter()
-        .find(|v| !(v.is_finite() && **v > 0.0))
-    {
-        return Err(err(format!(
-            "sweep.speeds_m_s contains {v}; speeds must be finite and positive"
-        )));
-    }
-    if let Some(v) = sweep
-        .loads_kg
-        .iter()
-        .find(|v| !(v.is_finite() && **v >= 0.0))
-    {
-        return Err(err(format!(
-            "sweep.loads_kg contains {v}; loads must be finite and non-negative"
-        )));
-    }
+    check_sweep(&sweep).map_err(err)?;
 
     Ok(Scenario {
         name: file.name,
@@ -508,6 +404,135 @@ fn parse(text: &str, label: &str, dir: &Path) -> Result<Scenario> {
         tcp_m,
         loads,
     })
+}
+
+/// The scenario's tool (`None` for [`NO_TOOL`]) and the TCP in the flange frame (m): the
+/// file's `tcp_m` without a tool, else the tool's own. `err` makes a file error; a tool file
+/// that cannot be read or parsed gives its own error.
+fn tool_and_tcp(
+    file: &ScenarioFile,
+    dir: &Path,
+    err: impl Fn(String) -> Error,
+) -> Result<(Option<Payload>, Vector3<f64>)> {
+    if file.tool == NO_TOOL {
+        let Some(tcp) = file.tcp_m else {
+            return Err(err(format!(
+                "tool = \"{NO_TOOL}\" needs tcp_m, the TCP in the flange frame (m)"
+            )));
+        };
+        if !tcp.iter().all(|v| v.is_finite()) {
+            return Err(err(format!("tcp_m = {tcp:?} must be finite")));
+        }
+        return Ok((None, Vector3::from(tcp)));
+    }
+    if file.tcp_m.is_some() {
+        return Err(err(format!(
+            "tcp_m applies only to tool = \"{NO_TOOL}\"; tool '{}' defines its own TCP",
+            file.tool
+        )));
+    }
+    let tool = if builtin::is_payload_name(&file.tool) {
+        builtin::payload(&file.tool)?
+    } else {
+        Payload::from_file(&dir.join(&file.tool))?
+    };
+    let Some(tcp) = tool.tcp else {
+        return Err(err(format!(
+            "tool '{}' defines no TCP (tcp_m); linear moves need one",
+            file.tool
+        )));
+    };
+    Ok((Some(tool), tcp))
+}
+
+/// The via points by name (TCP positions, base frame, m), checked finite, and a `path` of at
+/// least two steps that names only them; or why not.
+fn via_points(
+    points: &BTreeMap<String, [f64; 3]>,
+    path: &[String],
+) -> std::result::Result<BTreeMap<String, Vector3<f64>>, String> {
+    let mut out = BTreeMap::new();
+    for (name, p) in points {
+        if !p.iter().all(|v| v.is_finite()) {
+            return Err(format!("points.{name} = {p:?} must be finite"));
+        }
+        out.insert(name.clone(), Vector3::from(*p));
+    }
+    if path.len() < 2 {
+        return Err(format!(
+            "path has {} via points; it needs at least 2 (the start and a target)",
+            path.len()
+        ));
+    }
+    for (k, name) in path.iter().enumerate() {
+        if !out.contains_key(name) {
+            let known: Vec<&str> = out.keys().map(String::as_str).collect();
+            return Err(format!(
+                "path[{}] = '{name}' is not a via point (defined in [points]: {})",
+                k + 1,
+                known.join(", ")
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// The loads sorted by `pick_at`, each within the `steps` of the path with a positive mass
+/// fraction and none picked before the previous one is released; or why not.
+fn sorted_loads(mut loads: Vec<Load>, steps: usize) -> std::result::Result<Vec<Load>, String> {
+    loads.sort_by_key(|l| l.pick_at);
+    for (k, l) in loads.iter().enumerate() {
+        if !(1 <= l.pick_at && l.pick_at < l.release_at && l.release_at <= steps) {
+            return Err(format!(
+                "load '{}': pick_at = {} and release_at = {} must satisfy \
+                 1 <= pick_at < release_at <= {steps} (steps of path)",
+                l.name, l.pick_at, l.release_at
+            ));
+        }
+        if !(l.mass_fraction.is_finite() && l.mass_fraction > 0.0) {
+            return Err(format!(
+                "load '{}': mass_fraction = {} must be finite and positive",
+                l.name, l.mass_fraction
+            ));
+        }
+        if k > 0 && l.pick_at < loads[k - 1].release_at {
+            return Err(format!(
+                "load '{}' is picked at step {} before load '{}' is released at step {}",
+                l.name,
+                l.pick_at,
+                loads[k - 1].name,
+                loads[k - 1].release_at
+            ));
+        }
+    }
+    Ok(loads)
+}
+
+/// Check that the sweep has speeds (m/s, finite and positive) and load levels (kg, finite
+/// and non-negative), at least one of each.
+fn check_sweep(sweep: &Sweep) -> std::result::Result<(), String> {
+    if sweep.speeds_m_s.is_empty() || sweep.loads_kg.is_empty() {
+        return Err("sweep.speeds_m_s and sweep.loads_kg need at least one value each".into());
+    }
+    if let Some(v) = sweep
+        .speeds_m_s
+        .iter()
+        .find(|v| !(v.is_finite() && **v > 0.0))
+    {
+        return Err(format!(
+            "sweep.speeds_m_s contains {v}; speeds must be finite and positive"
+        ));
+    }
+    if let Some(v) = sweep
+        .loads_kg
+        .iter()
+        .find(|v| !(v.is_finite() && **v >= 0.0))
+    {
+        return Err(format!(
+            "sweep.loads_kg contains {v}; loads must be finite and non-negative"
+        ));
+    }
+    Ok(())
 }
 
 /// The rotation whose x and z axes are `x_base` and `z_base` (unit within [`AXIS_TOL`] and

@@ -250,68 +250,85 @@ impl PowerModel {
             )));
         }
         self.check_robot(robot)?;
-        let n = robot.dof();
-        let nb = self.columns.len();
         let bad = |m: String| Error::InvalidInput(format!("model file: {m}"));
+        self.check_base_shape(robot).map_err(bad)?;
+        self.check_joint_shapes(robot.dof()).map_err(bad)?;
+        self.check_values().map_err(bad)?;
+        self.check_alternative(robot).map_err(bad)
+    }
+
+    /// Check the layout against `robot`'s and the base parameters: as many names and values
+    /// as columns, each column within the layout; or why not.
+    fn check_base_shape(&self, robot: &Robot) -> std::result::Result<(), String> {
+        let nb = self.columns.len();
         if self.layout.len()
             != ParamLayout::new(robot, self.layout.friction, self.layout.armature).len()
         {
-            return Err(bad("the parameter layout does not match the robot".into()));
+            return Err("the parameter layout does not match the robot".into());
         }
         if self.names.len() != nb || self.theta.len() != nb {
-            return Err(bad(format!(
+            return Err(format!(
                 "{} names and {} values for {nb} base parameters",
                 self.names.len(),
                 self.theta.len()
-            )));
+            ));
         }
         if let Some(c) = self.columns.iter().find(|&&c| c >= self.layout.len()) {
-            return Err(bad(format!(
+            return Err(format!(
                 "column {c} is outside the {}-column layout",
                 self.layout.len()
-            )));
+            ));
         }
+        Ok(())
+    }
+
+    /// Check the per-joint vectors for `n` joints (the optional ones empty or of length `n`,
+    /// each Stribeck law valid) and the covariance (empty or parameters squared); or why not.
+    fn check_joint_shapes(&self, n: usize) -> std::result::Result<(), String> {
         for (what, v, len) in [
             ("copper_W_per_Nm2", &self.copper, n),
             ("constant_W", &self.constant, n),
         ] {
             if v.len() != len {
-                return Err(bad(format!(
-                    "{what} has {} entries for {len} joints",
-                    v.len()
-                )));
+                return Err(format!("{what} has {} entries for {len} joints", v.len()));
             }
         }
         if !(self.stribeck.is_empty() || self.stribeck.len() == n) {
-            return Err(bad(format!(
+            return Err(format!(
                 "stribeck has {} entries for {n} joints",
                 self.stribeck.len()
-            )));
+            ));
         }
         if let Some(j) = self
             .stribeck
             .iter()
             .position(|s| s.is_some_and(|s| !s.is_valid()))
         {
-            return Err(bad(format!(
+            return Err(format!(
                 "stribeck of joint {}: rise must be finite and >= 0, speed_rad_s finite and > 0",
                 j + 1
-            )));
+            ));
         }
         if !(self.gear_friction.is_empty() || self.gear_friction.len() == n) {
-            return Err(bad(format!(
+            return Err(format!(
                 "gear_friction has {} entries for {n} joints",
                 self.gear_friction.len()
-            )));
+            ));
         }
         let np = self.params();
         if !self.covariance.is_empty() && self.covariance.len() != np * np {
-            return Err(bad(format!(
+            return Err(format!(
                 "covariance has {} entries, expected {np}^2 = {}",
                 self.covariance.len(),
                 np * np
-            )));
+            ));
         }
+        Ok(())
+    }
+
+    /// Check that every value is finite and the structure terms (W, or relative), the bus
+    /// floor (W) and the payload seen (kg) are non-negative; or why not.
+    fn check_values(&self) -> std::result::Result<(), String> {
         for (what, v) in [
             ("theta", &self.theta),
             ("copper_W_per_Nm2", &self.copper),
@@ -319,7 +336,7 @@ impl PowerModel {
             ("constant_W", &self.constant),
             ("covariance", &self.covariance),
         ] {
-            crate::error::ensure_finite(v, what).map_err(|e| bad(e.to_string()))?;
+            crate::error::ensure_finite(v, what).map_err(|e| e.to_string())?;
         }
         for (what, v) in [
             ("structure_sigma_W", self.structure_sigma),
@@ -328,44 +345,47 @@ impl PowerModel {
             ("structure_active_W", self.structure_active),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(format!("{what} = {v} must be finite and >= 0")));
+                return Err(format!("{what} = {v} must be finite and >= 0"));
             }
         }
         if let Some(v) = self.lowest_seen
             && !v.is_finite()
         {
-            return Err(bad(format!("lowest_seen_W = {v} must be finite")));
+            return Err(format!("lowest_seen_W = {v} must be finite"));
         }
         if let Some(v) = self.bus_floor
             && !(v.is_finite() && v >= 0.0)
         {
-            return Err(bad(format!("bus_floor_W = {v} must be finite and >= 0")));
+            return Err(format!("bus_floor_W = {v} must be finite and >= 0"));
         }
         if let Some(v) = self.payload_seen
             && !(v.is_finite() && v >= 0.0)
         {
-            return Err(bad(format!(
-                "payload_seen_kg = {v} must be finite and >= 0"
-            )));
-        }
-        if let Some(alt) = &self.alternative {
-            if self.gear_friction.is_empty() == alt.gear_friction.is_empty() {
-                return Err(bad(
-                    "the alternative model must have gear_friction exactly when this one has none"
-                        .into(),
-                ));
-            }
-            if alt.alternative.is_some() || alt.columns != self.columns {
-                return Err(bad(
-                    "the alternative model must have this model's base parameters and no \
-                     alternative of its own"
-                        .into(),
-                ));
-            }
-            alt.validate(robot)
-                .map_err(|e| bad(format!("alternative: {e}")))?;
+            return Err(format!("payload_seen_kg = {v} must be finite and >= 0"));
         }
         Ok(())
+    }
+
+    /// Check the alternative model, if any: the other friction structure over the same base
+    /// parameters, without an alternative of its own, and valid for `robot`; or why not.
+    fn check_alternative(&self, robot: &Robot) -> std::result::Result<(), String> {
+        let Some(alt) = &self.alternative else {
+            return Ok(());
+        };
+        if self.gear_friction.is_empty() == alt.gear_friction.is_empty() {
+            return Err(
+                "the alternative model must have gear_friction exactly when this one has none"
+                    .into(),
+            );
+        }
+        if alt.alternative.is_some() || alt.columns != self.columns {
+            return Err(
+                "the alternative model must have this model's base parameters and no \
+                 alternative of its own"
+                    .into(),
+            );
+        }
+        alt.validate(robot).map_err(|e| format!("alternative: {e}"))
     }
 
     /// Check that the model belongs to `robot`.
