@@ -208,88 +208,30 @@ pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepa
     }
     log.validate()?;
     let t = &log.t_s;
-    let q = &log.q_rad;
-    let n = q.len();
-    // The motion through the log, and the states at the sample times along it (the Fourier
-    // series is fitted once and evaluated there; the spline and smoothing routes give the
-    // states and interpolate them).
-    let sampled = |s: &States| {
-        Sampled::new(
-            s.t.clone(),
-            s.q.clone(),
-            Some(s.dq.clone()),
-            Some(s.ddq.clone()),
-        )
-    };
-    let (states, motion): (States, Box<dyn Trajectory>) = match route {
-        Route::Fourier {
-            base_freq_hz,
-            harmonics,
-        } => {
-            let series = fit_fourier(t, q, base_freq_hz, harmonics)?.series;
-            (from_fourier(&series, t), Box::new(series))
-        }
-        Route::Spline => {
-            let route = from_spline(t, q)?;
-            let m = sampled(&route.knots)?.with_move_weights(route.move_weights)?;
-            (route.states, Box::new(m))
-        }
-        Route::Smoothing { window, degree } => {
-            let mut s = from_smoothing(t, q, window, degree)?;
-            for i in 0..n {
-                for m in 0..s.len() {
-                    if s.dq[i][m].abs() < REST_SPEED {
-                        s.dq[i][m] = 0.0;
-                        s.ddq[i][m] = 0.0;
-                    }
-                }
-            }
-            let m = sampled(&s)?;
-            (s, Box::new(m))
-        }
-    };
-    let excited: Vec<usize> = (0..n)
-        .filter(|&i| {
-            let (lo, hi) = q[i]
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                    (a.min(*v), b.max(*v))
-                });
-            hi - lo > EXCITED_RANGE
-        })
-        .collect();
-    let p_joint = match &log.motor_power_w {
-        Some(p) => (0..t.len())
-            .flat_map(|k| (0..n).map(move |i| p[i][k]))
-            .collect(),
-        None => Vec::new(),
-    };
+    let (states, motion) = route_motion(t, &log.q_rad, route)?;
+    let excited = excited_joints(&log.q_rad);
+    let p_joint = motor_power_rows(log);
     let motion_t0_s = match route {
         Route::Fourier { .. } => 0.0,
         Route::Spline | Route::Smoothing { .. } => t[0],
     };
+    let shift = (power_lag_s, motion_t0_s);
     let states = if log.power_averaged || power_lag_s != 0.0 {
         // The states of the power's times along the motion, stamped with the sample times.
-        let at: Vec<f64> = power_times(t, log.power_averaged)
-            .iter()
-            .map(|s| s - power_lag_s - motion_t0_s)
-            .collect();
+        let times = power_times(t, log.power_averaged);
         States {
             t: t.clone(),
-            ..from_fourier(motion.as_ref(), &at)
+            ..states_along(motion.as_ref(), &times, shift)
         }
     } else {
         states
     };
     let period_nodes = log.power_averaged.then(|| {
         let t_nodes = period_node_times(t);
-        let at: Vec<f64> = t_nodes
-            .iter()
-            .map(|s| s - power_lag_s - motion_t0_s)
-            .collect();
+        let along = states_along(motion.as_ref(), &t_nodes, shift);
         States {
             t: t_nodes,
-            ..from_fourier(motion.as_ref(), &at)
+            ..along
         }
     });
     Ok(Prepared {
@@ -304,6 +246,92 @@ pub fn prepare_lagged(log: &Log, route: Route, power_lag_s: f64) -> Result<Prepa
         excited,
         power_averaged: log.power_averaged,
     })
+}
+
+/// The motion through the logged positions `q` (rad, joint-major) at the sample times `t`
+/// (s, log time) along `route`, and the states at the sample times along it (the Fourier
+/// series is fitted once and evaluated there; the spline and smoothing routes give the
+/// states and interpolate them).
+fn route_motion(t: &[f64], q: &[Vec<f64>], route: Route) -> Result<(States, Box<dyn Trajectory>)> {
+    Ok(match route {
+        Route::Fourier {
+            base_freq_hz,
+            harmonics,
+        } => {
+            let series = fit_fourier(t, q, base_freq_hz, harmonics)?.series;
+            (from_fourier(&series, t), Box::new(series))
+        }
+        Route::Spline => {
+            let route = from_spline(t, q)?;
+            let m = sampled(&route.knots)?.with_move_weights(route.move_weights)?;
+            (route.states, Box::new(m))
+        }
+        Route::Smoothing { window, degree } => {
+            let mut s = from_smoothing(t, q, window, degree)?;
+            for i in 0..q.len() {
+                for m in 0..s.len() {
+                    if s.dq[i][m].abs() < REST_SPEED {
+                        s.dq[i][m] = 0.0;
+                        s.ddq[i][m] = 0.0;
+                    }
+                }
+            }
+            let m = sampled(&s)?;
+            (s, Box::new(m))
+        }
+    })
+}
+
+/// The quintic Hermite motion through the states `s` (positions, velocities and
+/// accelerations at their times).
+fn sampled(s: &States) -> Result<Sampled> {
+    Sampled::new(
+        s.t.clone(),
+        s.q.clone(),
+        Some(s.dq.clone()),
+        Some(s.ddq.clone()),
+    )
+}
+
+/// The joints (0-based) whose logged positions `q` (rad, joint-major) span more than
+/// [`EXCITED_RANGE`].
+fn excited_joints(q: &[Vec<f64>]) -> Vec<usize> {
+    (0..q.len())
+        .filter(|&i| {
+            let (lo, hi) = q[i]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(*v), b.max(*v))
+                });
+            hi - lo > EXCITED_RANGE
+        })
+        .collect()
+}
+
+/// The log's per-motor power (W), sample-major `[m * n + i]` (empty when not logged).
+fn motor_power_rows(log: &Log) -> Vec<f64> {
+    let n = log.q_rad.len();
+    match &log.motor_power_w {
+        Some(p) => (0..log.t_s.len())
+            .flat_map(|k| (0..n).map(move |i| p[i][k]))
+            .collect(),
+        None => Vec::new(),
+    }
+}
+
+/// The states along `motion` at the log times `times` (s) less the power's lag and the
+/// motion's start, `shift = (power_lag_s, motion_t0_s)` (s); stamped with the motion's
+/// times, for the caller to restamp.
+fn states_along(
+    motion: &dyn Trajectory,
+    times: &[f64],
+    (power_lag_s, motion_t0_s): (f64, f64),
+) -> States {
+    let at: Vec<f64> = times
+        .iter()
+        .map(|s| s - power_lag_s - motion_t0_s)
+        .collect();
+    from_fourier(motion, &at)
 }
 
 #[cfg(test)]

@@ -168,7 +168,43 @@ struct SetProblem<'a> {
     joints: Vec<usize>,
 }
 
-impl SetProblem<'_> {
+impl<'a> SetProblem<'a> {
+    /// The set problem of `opts` for `robot`: the base columns of its structure (position
+    /// limits lifted), each member's nominal parameters (URDF with its payload attached) and
+    /// the limits' bounds.
+    fn new(robot: &'a Robot, opts: &'a SetOptions) -> Result<Self> {
+        let n = robot.dof();
+        let layout = ParamLayout::new(robot, true, true);
+        let base = BaseParams::compute(&structural(robot)?, layout, &SamplingOptions::default())?;
+        let drive = DriveTerms::from_urdf(robot);
+        let nominal = opts
+            .members
+            .iter()
+            .map(|m| {
+                Ok(match &m.payload {
+                    Some(p) => layout.theta(&attach(robot, p)?, &drive),
+                    None => layout.theta(robot, &drive),
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(SetProblem {
+            robot,
+            opts,
+            layout,
+            columns: base.independent().to_vec(),
+            nominal,
+            bounds: Bounds::new(
+                robot,
+                opts.position_margin,
+                opts.limit_fraction,
+                &opts.accel_limits,
+                opts.floor_z,
+                opts.base_radius,
+            ),
+            joints: (0..n).collect(),
+        })
+    }
+
     /// Unknowns of the fit: base parameters, copper coefficients, constant.
     fn params(&self) -> usize {
         self.columns.len() + self.robot.dof() + 1
@@ -414,125 +450,135 @@ fn check_options(robot: &Robot, opts: &SetOptions) -> Result<()> {
 /// that is not physical, or a result that still violates a limit.
 pub fn design_set(robot: &Robot, opts: &SetOptions) -> Result<SetDesign> {
     let start = Instant::now();
-    let n = robot.dof();
     check_options(robot, opts)?;
-    let layout = ParamLayout::new(robot, true, true);
-    let base = BaseParams::compute(&structural(robot)?, layout, &SamplingOptions::default())?;
-    let drive = DriveTerms::from_urdf(robot);
-    let nominal = opts
-        .members
-        .iter()
-        .map(|m| {
-            Ok(match &m.payload {
-                Some(p) => layout.theta(&attach(robot, p)?, &drive),
-                None => layout.theta(robot, &drive),
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let problem = SetProblem {
-        robot,
-        opts,
-        layout,
-        columns: base.independent().to_vec(),
-        nominal,
-        bounds: Bounds::new(
-            robot,
-            opts.position_margin,
-            opts.limit_fraction,
-            &opts.accel_limits,
-            opts.floor_z,
-            opts.base_radius,
-        ),
-        joints: (0..n).collect(),
-    };
+    let problem = SetProblem::new(robot, opts)?;
     let count = opts.members.len();
-    let p = problem.params();
-    let mut xs: Vec<Vec<f64>> = opts
-        .members
-        .iter()
-        .enumerate()
-        .map(|(k, m)| {
-            let mut rng = ChaCha8Rng::seed_from_u64(opts.seed.wrapping_add(k as u64));
-            problem.within_limits(
-                k,
-                start_point(&m.centre, &problem.joints, opts.harmonics, &mut rng),
-            )
-        })
-        .collect::<Result<_>>()?;
-    let infos = |xs: &[Vec<f64>]| -> Result<Vec<DMatrix<f64>>> {
-        (0..count)
-            .into_par_iter()
-            .map(|k| {
-                Ok(problem
-                    .information(k, &problem.trajectory(k, &xs[k])?, 1.0)
-                    .0)
+    let mut xs = problem.start_points()?;
+    let mut info = problem.all_information(&xs)?;
+    let cond_initial = SetProblem::cond(&problem.summed(&info, None, count));
+    let rounds = problem.optimise_rounds(&mut xs, &mut info)?;
+    let (trajectories, member_conds) = problem.checked_trajectories(&xs)?;
+    Ok(SetDesign {
+        trajectories,
+        cond_initial,
+        cond_final: SetProblem::cond(&problem.summed(&info, None, count)),
+        member_conds,
+        criterion_by_round: rounds.criterion_by_round,
+        evaluations: rounds.evaluations,
+        wall_s: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// What the block-coordinate rounds of [`design_set`] spent and reached.
+struct Rounds {
+    /// Criterion value after each round.
+    criterion_by_round: Vec<f64>,
+    /// Objective evaluations in all.
+    evaluations: usize,
+}
+
+impl SetProblem<'_> {
+    /// Each member's seeded start point (member `k` from `seed + k`), within its limits
+    /// ([`SetProblem::within_limits`]).
+    fn start_points(&self) -> Result<Vec<Vec<f64>>> {
+        let opts = self.opts;
+        opts.members
+            .iter()
+            .enumerate()
+            .map(|(k, m)| {
+                let mut rng = ChaCha8Rng::seed_from_u64(opts.seed.wrapping_add(k as u64));
+                self.within_limits(
+                    k,
+                    start_point(&m.centre, &self.joints, opts.harmonics, &mut rng),
+                )
             })
             .collect()
-    };
-    let sum = |infos: &[DMatrix<f64>], skip: Option<usize>, upto: usize| {
+    }
+
+    /// Information `A^T A` (unscaled) of member `k`'s excitation at `x`.
+    fn member_information(&self, k: usize, x: &[f64]) -> Result<DMatrix<f64>> {
+        Ok(self.information(k, &self.trajectory(k, x)?, 1.0).0)
+    }
+
+    /// Information of every member at its point of `xs`, computed in parallel.
+    fn all_information(&self, xs: &[Vec<f64>]) -> Result<Vec<DMatrix<f64>>> {
+        (0..self.opts.members.len())
+            .into_par_iter()
+            .map(|k| self.member_information(k, &xs[k]))
+            .collect()
+    }
+
+    /// Sum of the first `upto` members' information `infos`, leaving out member `skip`.
+    fn summed(&self, infos: &[DMatrix<f64>], skip: Option<usize>, upto: usize) -> DMatrix<f64> {
+        let p = self.params();
         infos
             .iter()
             .enumerate()
             .take(upto)
             .filter(|(j, _)| Some(*j) != skip)
             .fold(DMatrix::zeros(p, p), |acc, (_, i)| acc + i)
-    };
-    let mut info = infos(&xs)?;
-    let cond_initial = SetProblem::cond(&sum(&info, None, count));
-    let mut evaluations = 0;
-    let mut criterion_by_round = Vec::with_capacity(opts.rounds);
-    for round in 0..opts.rounds {
-        for k in 0..count {
-            // Round 1 designs for the excitations already designed; later rounds for all.
-            let fixed = sum(&info, Some(k), if round == 0 { k } else { count });
-            let sigma = if round == 0 {
-                SIGMA_FIRST
-            } else {
-                SIGMA_REFINE
-            };
-            let seed = opts
-                .seed
-                .wrapping_add(1000 * round as u64)
-                .wrapping_add(k as u64);
-            let before = xs[k].clone();
-            evaluations += problem.optimise_block(
-                k,
-                &fixed,
-                &mut xs[k],
-                (sigma, seed),
-                round + 1 == opts.rounds,
-            )?;
-            if xs[k] != before {
-                info[k] = problem
-                    .information(k, &problem.trajectory(k, &xs[k])?, 1.0)
-                    .0;
+    }
+
+    /// The block-coordinate rounds: each member's point in `xs` optimised in turn, its
+    /// information in `info` kept up to date.
+    fn optimise_rounds(&self, xs: &mut [Vec<f64>], info: &mut [DMatrix<f64>]) -> Result<Rounds> {
+        let opts = self.opts;
+        let count = opts.members.len();
+        let mut evaluations = 0;
+        let mut criterion_by_round = Vec::with_capacity(opts.rounds);
+        for round in 0..opts.rounds {
+            for k in 0..count {
+                // Round 1 designs for the excitations already designed; later rounds for all.
+                let fixed = self.summed(info, Some(k), if round == 0 { k } else { count });
+                let sigma = if round == 0 {
+                    SIGMA_FIRST
+                } else {
+                    SIGMA_REFINE
+                };
+                let seed = opts
+                    .seed
+                    .wrapping_add(1000 * round as u64)
+                    .wrapping_add(k as u64);
+                let before = xs[k].clone();
+                evaluations += self.optimise_block(
+                    k,
+                    &fixed,
+                    &mut xs[k],
+                    (sigma, seed),
+                    round + 1 == opts.rounds,
+                )?;
+                if xs[k] != before {
+                    info[k] = self.member_information(k, &xs[k])?;
+                }
             }
+            criterion_by_round.push(self.criterion(&self.summed(info, None, count)));
         }
-        criterion_by_round.push(problem.criterion(&sum(&info, None, count)));
+        Ok(Rounds {
+            criterion_by_round,
+            evaluations,
+        })
     }
-    let mut trajectories = Vec::with_capacity(count);
-    let mut member_conds = Vec::with_capacity(count);
-    for (k, x) in xs.iter().enumerate() {
-        let traj = problem.trajectory(k, x)?;
-        let (own, penalty) = problem.information(k, &traj, 1.0);
-        if penalty > 0.0 {
-            return Err(Error::JointLimit(format!(
-                "excitation {} of the set still violates limits or the workspace (penalty {penalty:.3e}); widen the limits or reduce the harmonics",
-                k + 1
-            )));
+
+    /// The designed excitations at the points `xs` and the condition number of each one's
+    /// own regressor; errors when one violates a limit (its penalty, then [`check_limits`]).
+    fn checked_trajectories(&self, xs: &[Vec<f64>]) -> Result<(Vec<Fourier>, Vec<f64>)> {
+        let count = xs.len();
+        let mut trajectories = Vec::with_capacity(count);
+        let mut member_conds = Vec::with_capacity(count);
+        for (k, x) in xs.iter().enumerate() {
+            let traj = self.trajectory(k, x)?;
+            let (own, penalty) = self.information(k, &traj, 1.0);
+            if penalty > 0.0 {
+                return Err(Error::JointLimit(format!(
+                    "excitation {} of the set still violates limits or the workspace (penalty {penalty:.3e}); widen the limits or reduce the harmonics",
+                    k + 1
+                )));
+            }
+            check_limits(self.robot, &traj, 1e-3, Some(&self.opts.accel_limits))
+                .map_err(|e| e.context(&format!("excitation {} of the set", k + 1)))?;
+            member_conds.push(SetProblem::cond(&own));
+            trajectories.push(traj);
         }
-        check_limits(robot, &traj, 1e-3, Some(&opts.accel_limits))
-            .map_err(|e| e.context(&format!("excitation {} of the set", k + 1)))?;
-        member_conds.push(SetProblem::cond(&own));
-        trajectories.push(traj);
+        Ok((trajectories, member_conds))
     }
-    Ok(SetDesign {
-        trajectories,
-        cond_initial,
-        cond_final: SetProblem::cond(&sum(&info, None, count)),
-        member_conds,
-        criterion_by_round,
-        evaluations,
-        wall_s: start.elapsed().as_secs_f64(),
-    })
 }

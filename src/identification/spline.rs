@@ -20,7 +20,7 @@
 //! of the quartic through the samples nearest the end, for a motion that runs on beyond the
 //! log; for the smoothing spline: the natural end of the least-jerk fit).
 
-use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SMatrix, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 use crate::error::{Error, Result, ensure_finite};
 
@@ -75,106 +75,23 @@ fn piece_row(r: usize, h: f64, dx: f64) -> ([f64; 2], [f64; 2], f64) {
 /// values, times that do not increase, or a system that cannot be solved (knots far too
 /// close for the arithmetic).
 pub fn quintic(t: &[f64], x: &[f64], start: End, end: End) -> Result<(Vec<f64>, Vec<f64>)> {
+    check_samples(t, x)?;
     let n = t.len();
-    if n < 2 || x.len() != n {
-        return Err(Error::InvalidInput(format!(
-            "a spline needs at least 2 samples and one position per time ({} times, {} positions)",
-            n,
-            x.len()
-        )));
-    }
-    ensure_finite(t, "t")?;
-    ensure_finite(x, "q")?;
-    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(Error::InvalidInput(format!(
-            "spline times must increase (sample {})",
-            k + 2
-        )));
-    }
     if n == 2 && start == End::Free && end == End::Free {
         // Two samples give no third or fourth derivative, and every quadratic through them
         // meets both ends' conditions: the least-acceleration one is the line.
         let v = (x[1] - x[0]) / (t[1] - t[0]);
         return Ok((vec![v; 2], vec![0.0; 2]));
     }
-    // Block rows: lower[k] u[k-1] + diag[k] u[k] + upper[k] u[k+1] = rhs[k], u = (v, a).
-    let mut lower = vec![Matrix2::zeros(); n];
-    let mut diag = vec![Matrix2::zeros(); n];
-    let mut upper = vec![Matrix2::zeros(); n];
-    let mut rhs = vec![Vector2::zeros(); n];
-    // Interior knots: q''' and q'''' continuous. Left piece k-1 at its end (rows 1, 3),
-    // right piece k at its start (rows 0, 2).
-    for k in 1..n - 1 {
-        let (hl, hr) = (t[k] - t[k - 1], t[k + 1] - t[k]);
-        let (dl, dr) = (x[k] - x[k - 1], x[k + 1] - x[k]);
-        for (row, (left, right)) in [(1, 0), (3, 2)].into_iter().enumerate() {
-            let (l0, l1, lc) = piece_row(left, hl, dl);
-            let (r0, r1, rc) = piece_row(right, hr, dr);
-            // left(end) - right(start) = 0
-            for c in 0..2 {
-                lower[k][(row, c)] = l0[c];
-                diag[k][(row, c)] = l1[c] - r0[c];
-                upper[k][(row, c)] = -r1[c];
-            }
-            rhs[k][row] = rc - lc;
-        }
-    }
-    // Ends.
-    let last = n - 1;
-    match start {
-        End::Rest => diag[0] = Matrix2::identity(),
-        End::Free => {
-            let (h, d) = (t[1] - t[0], x[1] - x[0]);
-            let near = n.min(END_SAMPLES);
-            let want = end_derivatives(&t[..near], &x[..near], t[0])?;
-            for (row, r) in [0, 2].into_iter().enumerate() {
-                let (p0, p1, pc) = piece_row(r, h, d);
-                for c in 0..2 {
-                    diag[0][(row, c)] = p0[c];
-                    upper[0][(row, c)] = p1[c];
-                }
-                rhs[0][row] = want[row] - pc;
-            }
-        }
-    }
-    match end {
-        End::Rest => {
-            lower[last] = Matrix2::zeros();
-            diag[last] = Matrix2::identity();
-            rhs[last] = Vector2::zeros();
-        }
-        End::Free => {
-            let (h, d) = (t[last] - t[last - 1], x[last] - x[last - 1]);
-            let near = n - n.min(END_SAMPLES);
-            let want = end_derivatives(&t[near..], &x[near..], t[last])?;
-            for (row, r) in [1, 3].into_iter().enumerate() {
-                let (p0, p1, pc) = piece_row(r, h, d);
-                for c in 0..2 {
-                    lower[last][(row, c)] = p0[c];
-                    diag[last][(row, c)] = p1[c];
-                }
-                rhs[last][row] = want[row] - pc;
-            }
-        }
-    }
-    // Block Thomas algorithm.
-    let singular = || {
+    let mut system = interior_joins(t, x);
+    start_condition(&mut system, t, x, start)?;
+    end_condition(&mut system, t, x, end)?;
+    let u = system.solve(|| {
         Error::InvalidInput(
             "the spline's equations are singular (sample times too close together?)".into(),
         )
-    };
-    for k in 1..n {
-        let inv = diag[k - 1].try_inverse().ok_or_else(singular)?;
-        let w = lower[k] * inv;
-        diag[k] -= w * upper[k - 1];
-        let carried = w * rhs[k - 1];
-        rhs[k] -= carried;
-    }
-    let mut u = vec![Vector2::zeros(); n];
-    u[last] = diag[last].try_inverse().ok_or_else(singular)? * rhs[last];
-    for k in (0..last).rev() {
-        u[k] = diag[k].try_inverse().ok_or_else(singular)? * (rhs[k] - upper[k] * u[k + 1]);
-    }
+    })?;
+    let last = n - 1;
     let mut v: Vec<f64> = u.iter().map(|p| p[0]).collect();
     let mut a: Vec<f64> = u.iter().map(|p| p[1]).collect();
     // Exact zeros at rest (the solve leaves round-off there, and a Coulomb term switches on
@@ -191,6 +108,149 @@ pub fn quintic(t: &[f64], x: &[f64], start: End, end: End) -> Result<(Vec<f64>, 
         )));
     }
     Ok((v, a))
+}
+
+/// Refuse samples no spline can pass through: fewer than 2, a position count other than the
+/// time count, non-finite times (s) or positions (rad), or times that do not increase.
+fn check_samples(t: &[f64], x: &[f64]) -> Result<()> {
+    let n = t.len();
+    if n < 2 || x.len() != n {
+        return Err(Error::InvalidInput(format!(
+            "a spline needs at least 2 samples and one position per time ({} times, {} positions)",
+            n,
+            x.len()
+        )));
+    }
+    ensure_finite(t, "t")?;
+    ensure_finite(x, "q")?;
+    if let Some(k) = t.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(Error::InvalidInput(format!(
+            "spline times must increase (sample {})",
+            k + 2
+        )));
+    }
+    Ok(())
+}
+
+/// A block-tridiagonal system in `D`-vectors, one block row per knot:
+/// `lower[k] u[k-1] + diag[k] u[k] + upper[k] u[k+1] = rhs[k]`.
+struct Blocks<const D: usize> {
+    lower: Vec<SMatrix<f64, D, D>>,
+    diag: Vec<SMatrix<f64, D, D>>,
+    upper: Vec<SMatrix<f64, D, D>>,
+    rhs: Vec<SVector<f64, D>>,
+}
+
+impl<const D: usize> Blocks<D> {
+    /// `n` block rows, all zero.
+    fn zeros(n: usize) -> Self {
+        Blocks {
+            lower: vec![SMatrix::zeros(); n],
+            diag: vec![SMatrix::zeros(); n],
+            upper: vec![SMatrix::zeros(); n],
+            rhs: vec![SVector::zeros(); n],
+        }
+    }
+
+    /// The solution `u`, one block per knot, by the block Thomas algorithm (elimination
+    /// forward, substitution back); `singular` is the error when a diagonal block cannot be
+    /// inverted.
+    fn solve(mut self, singular: impl Fn() -> Error) -> Result<Vec<SVector<f64, D>>> {
+        let n = self.diag.len();
+        for k in 1..n {
+            let inv = self.diag[k - 1].try_inverse().ok_or_else(&singular)?;
+            let w = self.lower[k] * inv;
+            self.diag[k] -= w * self.upper[k - 1];
+            let carried = w * self.rhs[k - 1];
+            self.rhs[k] -= carried;
+        }
+        let last = n - 1;
+        let mut u = vec![SVector::zeros(); n];
+        u[last] = self.diag[last].try_inverse().ok_or_else(&singular)? * self.rhs[last];
+        for k in (0..last).rev() {
+            u[k] = self.diag[k].try_inverse().ok_or_else(&singular)?
+                * (self.rhs[k] - self.upper[k] * u[k + 1]);
+        }
+        Ok(u)
+    }
+}
+
+/// The interpolating spline's system in the knot (velocity, acceleration) pairs (rad/s,
+/// rad/s^2) with the interior knots' rows filled: `q'''` and `q''''` continuous, the left
+/// piece `k-1` at its end (rows 1, 3 of [`JOINS`]) equal to the right piece `k` at its start
+/// (rows 0, 2). The end rows are left zero.
+fn interior_joins(t: &[f64], x: &[f64]) -> Blocks<2> {
+    let n = t.len();
+    let mut s = Blocks::<2>::zeros(n);
+    for k in 1..n - 1 {
+        let (hl, hr) = (t[k] - t[k - 1], t[k + 1] - t[k]);
+        let (dl, dr) = (x[k] - x[k - 1], x[k + 1] - x[k]);
+        for (row, (left, right)) in [(1, 0), (3, 2)].into_iter().enumerate() {
+            let (l0, l1, lc) = piece_row(left, hl, dl);
+            let (r0, r1, rc) = piece_row(right, hr, dr);
+            // left(end) - right(start) = 0
+            for c in 0..2 {
+                s.lower[k][(row, c)] = l0[c];
+                s.diag[k][(row, c)] = l1[c] - r0[c];
+                s.upper[k][(row, c)] = -r1[c];
+            }
+            s.rhs[k][row] = rc - lc;
+        }
+    }
+    s
+}
+
+/// The first knot's rows of `system`: at a [`End::Rest`] zero velocity and acceleration; at
+/// a [`End::Free`] start the first piece's third and fourth derivatives at `t[0]` (rows 0
+/// and 2 of [`JOINS`]) those of the polynomial through the nearest samples.
+fn start_condition(system: &mut Blocks<2>, t: &[f64], x: &[f64], start: End) -> Result<()> {
+    match start {
+        End::Rest => system.diag[0] = Matrix2::identity(),
+        End::Free => {
+            let n = t.len();
+            let (h, d) = (t[1] - t[0], x[1] - x[0]);
+            let near = n.min(END_SAMPLES);
+            let want = end_derivatives(&t[..near], &x[..near], t[0])?;
+            for (row, r) in [0, 2].into_iter().enumerate() {
+                let (p0, p1, pc) = piece_row(r, h, d);
+                for c in 0..2 {
+                    system.diag[0][(row, c)] = p0[c];
+                    system.upper[0][(row, c)] = p1[c];
+                }
+                system.rhs[0][row] = want[row] - pc;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The last knot's rows of `system`: at a [`End::Rest`] zero velocity and acceleration; at a
+/// [`End::Free`] end the last piece's third and fourth derivatives at the last time (rows 1
+/// and 3 of [`JOINS`]) those of the polynomial through the nearest samples.
+fn end_condition(system: &mut Blocks<2>, t: &[f64], x: &[f64], end: End) -> Result<()> {
+    let n = t.len();
+    let last = n - 1;
+    match end {
+        End::Rest => {
+            system.lower[last] = Matrix2::zeros();
+            system.diag[last] = Matrix2::identity();
+            system.rhs[last] = Vector2::zeros();
+        }
+        End::Free => {
+            let (h, d) = (t[last] - t[last - 1], x[last] - x[last - 1]);
+            let near = n - n.min(END_SAMPLES);
+            let want = end_derivatives(&t[near..], &x[near..], t[last])?;
+            for (row, r) in [1, 3].into_iter().enumerate() {
+                let (p0, p1, pc) = piece_row(r, h, d);
+                for c in 0..2 {
+                    system.lower[last][(row, c)] = p0[c];
+                    system.diag[last][(row, c)] = p1[c];
+                }
+                system.rhs[last][row] = want[row] - pc;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Third (rad/s^3) and fourth (rad/s^4) derivatives at time `at` of the polynomial of
@@ -266,109 +326,163 @@ pub fn smooth(t: &[f64], y: &[f64], start: End, end: End, sigma_rad: f64) -> Res
     if sigma_rad == 0.0 || free == 0 {
         return Ok(y.to_vec());
     }
-    let grams: Vec<SMatrix<f64, 6, 6>> = t.windows(2).map(|w| jerk_gram(w[1] - w[0])).collect();
-    let fixed = |k: usize| (k == 0 && start == End::Rest) || (k == n - 1 && end == End::Rest);
-    let solve = |mu: f64| -> Result<Vec<f64>> {
-        let mut lower = vec![Matrix3::zeros(); n];
-        let mut diag = vec![Matrix3::zeros(); n];
-        let mut upper = vec![Matrix3::zeros(); n];
-        let mut rhs = vec![Vector3::zeros(); n];
-        for k in 0..n {
-            if fixed(k) {
-                diag[k] = Matrix3::identity();
-                rhs[k] = Vector3::new(y[k], 0.0, 0.0);
+    let fit = Smoother {
+        y,
+        grams: t.windows(2).map(|w| jerk_gram(w[1] - w[0])).collect(),
+        start,
+        end,
+        free,
+        h: (t[n - 1] - t[0]) / (n - 1) as f64,
+    };
+    match fit.search(sigma_rad)? {
+        Weight::Interpolate => Ok(y.to_vec()),
+        Weight::Largest(e) => fit.solve(fit.mu(e)),
+        Weight::Found(e) => {
+            let x = fit.solve(fit.mu(e))?;
+            if let Some(bad) = x.iter().find(|v| !v.is_finite()) {
+                return Err(Error::Numerical(format!(
+                    "the smoothing spline overflowed ({bad})"
+                )));
+            }
+            Ok(x)
+        }
+    }
+}
+
+/// The smoothing spline's problem for the samples `y` (rad): the fits for a given weight of
+/// the jerk and the residual they leave.
+struct Smoother<'a> {
+    /// The samples, rad.
+    y: &'a [f64],
+    /// Each interval's jerk Gram matrix ([`jerk_gram`]).
+    grams: Vec<SMatrix<f64, 6, 6>>,
+    start: End,
+    end: End,
+    /// Samples not held by a [`End::Rest`].
+    free: usize,
+    /// Mean sample interval, s.
+    h: f64,
+}
+
+/// What the search for the smoothing weight found: the exponent `e = log10(mu / h^5)`.
+enum Weight {
+    /// Even the least weight leaves a residual at or above the noise: the samples themselves.
+    Interpolate,
+    /// Even the largest weight leaves a residual below the noise: the fit at that exponent.
+    Largest(f64),
+    /// The exponent whose residual's RMS is the noise's.
+    Found(f64),
+}
+
+impl Smoother<'_> {
+    /// Whether knot `k` is held by a [`End::Rest`] (its sample kept exactly).
+    fn fixed(&self, k: usize) -> bool {
+        let n = self.y.len();
+        (k == 0 && self.start == End::Rest) || (k == n - 1 && self.end == End::Rest)
+    }
+
+    /// The jerk weight `mu` (s^5) at the exponent `e`: `h^5 10^e`.
+    fn mu(&self, e: f64) -> f64 {
+        self.h.powi(5) * 10f64.powf(e)
+    }
+
+    /// The normal equations of the fit with jerk weight `mu`, in the knot (position,
+    /// velocity, acceleration) triples (rad, rad/s, rad/s^2).
+    fn system(&self, mu: f64) -> Blocks<3> {
+        let n = self.y.len();
+        let mut s = Blocks::<3>::zeros(n);
+        for (k, &y) in self.y.iter().enumerate() {
+            if self.fixed(k) {
+                s.diag[k] = Matrix3::identity();
+                s.rhs[k] = Vector3::new(y, 0.0, 0.0);
                 continue;
             }
-            diag[k][(0, 0)] = 1.0;
-            rhs[k][0] = y[k];
+            s.diag[k][(0, 0)] = 1.0;
+            s.rhs[k][0] = y;
             if k > 0 {
-                let g = &grams[k - 1];
-                lower[k] = mu * g.fixed_view::<3, 3>(3, 0);
-                diag[k] += mu * g.fixed_view::<3, 3>(3, 3);
+                let g = &self.grams[k - 1];
+                s.lower[k] = mu * g.fixed_view::<3, 3>(3, 0);
+                s.diag[k] += mu * g.fixed_view::<3, 3>(3, 3);
             }
             if k + 1 < n {
-                let g = &grams[k];
-                diag[k] += mu * g.fixed_view::<3, 3>(0, 0);
-                upper[k] = mu * g.fixed_view::<3, 3>(0, 3);
+                let g = &self.grams[k];
+                s.diag[k] += mu * g.fixed_view::<3, 3>(0, 0);
+                s.upper[k] = mu * g.fixed_view::<3, 3>(0, 3);
             }
         }
-        let singular = || Error::Numerical("the smoothing spline's equations are singular".into());
-        for k in 1..n {
-            let w = lower[k] * diag[k - 1].try_inverse().ok_or_else(singular)?;
-            diag[k] -= w * upper[k - 1];
-            let carried = w * rhs[k - 1];
-            rhs[k] -= carried;
-        }
-        let mut x = vec![0.0; n];
-        let mut next = diag[n - 1].try_inverse().ok_or_else(singular)? * rhs[n - 1];
-        x[n - 1] = next[0];
-        for k in (0..n - 1).rev() {
-            next = diag[k].try_inverse().ok_or_else(singular)? * (rhs[k] - upper[k] * next);
-            x[k] = next[0];
-        }
-        Ok(x)
-    };
-    let rms = |x: &[f64]| {
-        let se: f64 = (0..n)
-            .filter(|&k| !fixed(k))
-            .map(|k| (x[k] - y[k]).powi(2))
+        s
+    }
+
+    /// The fitted positions (rad) with jerk weight `mu`.
+    fn solve(&self, mu: f64) -> Result<Vec<f64>> {
+        let u = self
+            .system(mu)
+            .solve(|| Error::Numerical("the smoothing spline's equations are singular".into()))?;
+        Ok(u.iter().map(|p| p[0]).collect())
+    }
+
+    /// RMS (rad) of the residual of the positions `x` over the samples not held by a rest.
+    fn rms(&self, x: &[f64]) -> f64 {
+        let se: f64 = (0..self.y.len())
+            .filter(|&k| !self.fixed(k))
+            .map(|k| (x[k] - self.y[k]).powi(2))
             .sum();
-        (se / free as f64).sqrt()
-    };
-    // The residual grows with mu: search e = log10(mu / h^5) (h the mean interval) for the
-    // RMS, keeping a bracket [lo, hi] with the RMS at or below the noise at lo and above it
-    // at hi, until it is as narrow as MU_BISECTIONS halvings would leave it (or lo's RMS is
-    // the noise's to 1e-12). Each step is false position on ln(RMS / noise), a nearly
-    // straight function of e, with the Illinois modification (an end kept twice in a row
-    // has its value halved); a step that did not halve the bracket is followed by a
-    // bisection, so the search never takes more than twice the bisection's solves.
-    let h = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let mu = |e: f64| h.powi(5) * 10f64.powf(e);
-    let gap = |e: f64| -> Result<f64> { Ok((rms(&solve(mu(e))?) / sigma_rad).ln()) };
-    let (mut lo, mut hi) = (-MU_DECADES, MU_DECADES);
-    let mut f_lo = gap(lo)?;
-    if f_lo >= 0.0 {
-        return Ok(y.to_vec());
+        (se / self.free as f64).sqrt()
     }
-    let f_hi = gap(hi)?;
-    if f_hi <= 0.0 {
-        return solve(mu(hi));
+
+    /// `ln(RMS / sigma_rad)` of the fit at the exponent `e`.
+    fn gap(&self, e: f64, sigma_rad: f64) -> Result<f64> {
+        Ok((self.rms(&self.solve(self.mu(e))?) / sigma_rad).ln())
     }
-    let width = (hi - lo) / 2f64.powi(MU_BISECTIONS as i32);
-    // The ends' values as the false position weighs them (the Illinois halvings).
-    let (mut w_lo, mut w_hi) = (f_lo, f_hi);
-    let (mut kept, mut bisect) = (0i8, false);
-    while hi - lo > width && f_lo < -1e-12 {
-        let before = hi - lo;
-        let secant = hi - w_hi * (hi - lo) / (w_hi - w_lo);
-        let e = if !bisect && secant > lo && secant < hi {
-            secant
-        } else {
-            0.5 * (lo + hi)
-        };
-        let f = gap(e)?;
-        if f > 0.0 {
-            (hi, w_hi) = (e, f);
-            if kept == 1 {
-                w_lo *= 0.5;
-            }
-            kept = 1;
-        } else {
-            (lo, f_lo, w_lo) = (e, f, f);
-            if kept == -1 {
-                w_hi *= 0.5;
-            }
-            kept = -1;
+
+    /// The exponent of the jerk weight whose residual's RMS is `sigma_rad` (rad).
+    fn search(&self, sigma_rad: f64) -> Result<Weight> {
+        // The residual grows with mu: search e = log10(mu / h^5) (h the mean interval) for
+        // the RMS, keeping a bracket [lo, hi] with the RMS at or below the noise at lo and
+        // above it at hi, until it is as narrow as MU_BISECTIONS halvings would leave it (or
+        // lo's RMS is the noise's to 1e-12). Each step is false position on ln(RMS / noise),
+        // a nearly straight function of e, with the Illinois modification (an end kept twice
+        // in a row has its value halved); a step that did not halve the bracket is followed
+        // by a bisection, so the search never takes more than twice the bisection's solves.
+        let (mut lo, mut hi) = (-MU_DECADES, MU_DECADES);
+        let mut f_lo = self.gap(lo, sigma_rad)?;
+        if f_lo >= 0.0 {
+            return Ok(Weight::Interpolate);
         }
-        bisect = !bisect && hi - lo > 0.5 * before;
+        let f_hi = self.gap(hi, sigma_rad)?;
+        if f_hi <= 0.0 {
+            return Ok(Weight::Largest(hi));
+        }
+        let width = (hi - lo) / 2f64.powi(MU_BISECTIONS as i32);
+        // The ends' values as the false position weighs them (the Illinois halvings).
+        let (mut w_lo, mut w_hi) = (f_lo, f_hi);
+        let (mut kept, mut bisect) = (0i8, false);
+        while hi - lo > width && f_lo < -1e-12 {
+            let before = hi - lo;
+            let secant = hi - w_hi * (hi - lo) / (w_hi - w_lo);
+            let e = if !bisect && secant > lo && secant < hi {
+                secant
+            } else {
+                0.5 * (lo + hi)
+            };
+            let f = self.gap(e, sigma_rad)?;
+            if f > 0.0 {
+                (hi, w_hi) = (e, f);
+                if kept == 1 {
+                    w_lo *= 0.5;
+                }
+                kept = 1;
+            } else {
+                (lo, f_lo, w_lo) = (e, f, f);
+                if kept == -1 {
+                    w_hi *= 0.5;
+                }
+                kept = -1;
+            }
+            bisect = !bisect && hi - lo > 0.5 * before;
+        }
+        Ok(Weight::Found(lo))
     }
-    let x = solve(mu(lo))?;
-    if let Some(bad) = x.iter().find(|v| !v.is_finite()) {
-        return Err(Error::Numerical(format!(
-            "the smoothing spline overflowed ({bad})"
-        )));
-    }
-    Ok(x)
 }
 
 /// Range of the smoothing weight searched, decades either side of `h^5` (the weight at which

@@ -82,6 +82,50 @@ pub fn estimate_lag(
     power_w: &[f64],
     max_lag_s: f64,
 ) -> Result<LagEstimate> {
+    let rows = search_rows(t_s, q_rad.len(), max_lag_s)?;
+    let dq: Vec<Vec<f64>> = match dq_rad_s {
+        Some(d) => d.to_vec(),
+        None => q_rad.iter().map(|q| derivative(t_s, q)).collect(),
+    };
+    let ddq: Vec<Vec<f64>> = dq.iter().map(|v| derivative(t_s, v)).collect();
+    let x = joint_terms(q_rad, &dq, &ddq, &rows.inner);
+    let q = orthonormal_terms(&x);
+    let r2 = |shift: i64| explained(&q, &rows.inner, power_w, shift);
+    let s = rows.steps as i64;
+    let grid: Vec<(i64, f64)> = (-s..=s).map(|j| (j, r2(j))).collect();
+    let best = (0..grid.len())
+        .max_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))
+        .unwrap_or(0);
+    let mut lag = grid[best].0 as f64;
+    if best > 0 && best + 1 < grid.len() {
+        let (a, b, c) = (grid[best - 1].1, grid[best].1, grid[best + 1].1);
+        let denom = a - 2.0 * b + c;
+        if denom < 0.0 {
+            lag += 0.5 * (a - c) / denom;
+        }
+    }
+    Ok(LagEstimate {
+        lag_s: lag * rows.period,
+        r2: grid[best].1,
+        r2_at_zero: r2(0),
+    })
+}
+
+/// The samples the lag regression uses and the shifts it tries.
+struct SearchRows {
+    /// Median sample period, s.
+    period: f64,
+    /// Largest shift tried either way, samples.
+    steps: usize,
+    /// Indices of the samples regressed: those at least `steps` from either end, thinned
+    /// to at most [`MAX_ROWS`].
+    inner: Vec<usize>,
+}
+
+/// The samples and shifts of the lag search over `+-max_lag_s` (s) for a log with the
+/// times `t_s` (s) of `n` joints. Errors: too few samples for the search or for the
+/// regression's terms.
+fn search_rows(t_s: &[f64], n: usize, max_lag_s: f64) -> Result<SearchRows> {
     let m = t_s.len();
     let period = median_period(t_s);
     if m < 2 || period <= 0.0 {
@@ -97,8 +141,7 @@ pub fn estimate_lag(
     // resolution is kept) bounds the cost.
     let stride = inside.len().div_ceil(MAX_ROWS).max(1);
     let inner: Vec<usize> = inside.into_iter().step_by(stride).collect();
-    let n = q_rad.len();
-    let features = 1 + 6 * n + n * (3 + 2 * n);
+    let features = term_count(n);
     if inner.len() < 50.max(2 * features) {
         return Err(Error::InvalidInput(format!(
             "{} samples inside the +-{max_lag_s} s lag search are too few to estimate the power lag (need {})",
@@ -106,13 +149,29 @@ pub fn estimate_lag(
             50.max(2 * features)
         )));
     }
-    let dq: Vec<Vec<f64>> = match dq_rad_s {
-        Some(d) => d.to_vec(),
-        None => q_rad.iter().map(|q| derivative(t_s, q)).collect(),
-    };
-    let ddq: Vec<Vec<f64>> = dq.iter().map(|v| derivative(t_s, v)).collect();
-    let rows = inner.len();
-    let mut x = DMatrix::<f64>::zeros(rows, features);
+    Ok(SearchRows {
+        period,
+        steps,
+        inner,
+    })
+}
+
+/// Number of joint-stream terms for `n` joints (see the module docs).
+fn term_count(n: usize) -> usize {
+    1 + 6 * n + n * (3 + 2 * n)
+}
+
+/// The joint-stream terms (see the module docs) at the samples `inner`, one row each, from
+/// the positions `q_rad` (rad), velocities `dq` (rad/s) and accelerations `ddq` (rad/s^2),
+/// joint-major.
+fn joint_terms(
+    q_rad: &[Vec<f64>],
+    dq: &[Vec<f64>],
+    ddq: &[Vec<f64>],
+    inner: &[usize],
+) -> DMatrix<f64> {
+    let n = q_rad.len();
+    let mut x = DMatrix::<f64>::zeros(inner.len(), term_count(n));
     for (r, &k) in inner.iter().enumerate() {
         let mut c = 0;
         let mut put = |v: f64| {
@@ -142,7 +201,13 @@ pub fn estimate_lag(
             }
         }
     }
-    // Scale the columns and leave out those that are (numerically) zero: a joint at rest.
+    x
+}
+
+/// An orthonormal basis (the `Q` of a QR factorisation) of the terms `x`, its columns
+/// scaled to unit norm and those that are (numerically) zero left out: a joint at rest.
+fn orthonormal_terms(x: &DMatrix<f64>) -> DMatrix<f64> {
+    let (rows, features) = x.shape();
     let keep: Vec<usize> = (0..features)
         .filter(|&c| x.column(c).norm() > 1e-9 * (rows as f64).sqrt())
         .collect();
@@ -152,40 +217,24 @@ pub fn estimate_lag(
         let norm = col.norm();
         xs.set_column(j, &(col / norm));
     }
-    let q = xs.qr().q();
-    // Fraction of the variance of the power shifted by `shift` samples the terms explain.
-    let r2 = |shift: i64| -> f64 {
-        let y = DVector::from_iterator(
-            rows,
-            inner.iter().map(|&k| power_w[(k as i64 + shift) as usize]),
-        );
-        let mean = y.mean();
-        let total = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
-        let residual = (y.norm_squared() - (q.transpose() * &y).norm_squared()).max(0.0);
-        if total > 0.0 {
-            1.0 - residual / total
-        } else {
-            0.0
-        }
-    };
-    let s = steps as i64;
-    let grid: Vec<(i64, f64)> = (-s..=s).map(|j| (j, r2(j))).collect();
-    let best = (0..grid.len())
-        .max_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))
-        .unwrap_or(0);
-    let mut lag = grid[best].0 as f64;
-    if best > 0 && best + 1 < grid.len() {
-        let (a, b, c) = (grid[best - 1].1, grid[best].1, grid[best + 1].1);
-        let denom = a - 2.0 * b + c;
-        if denom < 0.0 {
-            lag += 0.5 * (a - c) / denom;
-        }
+    xs.qr().q()
+}
+
+/// Fraction of the variance of the power `power_w` (W) shifted by `shift` samples, taken at
+/// the samples `inner`, that the terms with the orthonormal basis `q` explain.
+fn explained(q: &DMatrix<f64>, inner: &[usize], power_w: &[f64], shift: i64) -> f64 {
+    let y = DVector::from_iterator(
+        inner.len(),
+        inner.iter().map(|&k| power_w[(k as i64 + shift) as usize]),
+    );
+    let mean = y.mean();
+    let total = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>();
+    let residual = (y.norm_squared() - (q.transpose() * &y).norm_squared()).max(0.0);
+    if total > 0.0 {
+        1.0 - residual / total
+    } else {
+        0.0
     }
-    Ok(LagEstimate {
-        lag_s: lag * period,
-        r2: grid[best].1,
-        r2_at_zero: r2(0),
-    })
 }
 
 /// Resample `power_w` (and each of `others`) at `t + lag_s` by linear interpolation, keeping

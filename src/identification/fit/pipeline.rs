@@ -23,6 +23,33 @@ pub fn identify_logs(
     routes: &[crate::identification::data::Route],
     opts: &FitOptions,
 ) -> Result<Selection> {
+    check_inputs(robot, logs, routes, opts)?;
+    let template = template(robot, opts)?;
+    let lag = super::lag::find_lag(robot, &template, logs, routes, opts)?;
+    let samples = pooled_samples(robot, &template, logs, routes, lag, opts)?;
+    let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
+    if opts.consistent {
+        let (model, consistent) =
+            consistent_model(robot, &samples, &selection.fit, selection.chosen, opts)?;
+        selection.fit.model = model;
+        selection.consistent = Some(consistent);
+        if let Some((estimator, alt)) = &mut selection.alternative {
+            alt.model = consistent_model(robot, &samples, alt, *estimator, opts)?.0;
+        }
+    }
+    annotate(&mut selection, &samples, logs, lag, opts);
+    Ok(selection)
+}
+
+/// Refuse what [`identify_logs`] cannot identify from: a route count other than one or one
+/// per log, a negative or non-finite minimum speed (rad/s), fit rate (Hz) or largest power
+/// lag (s), and logs of another robot.
+fn check_inputs(
+    robot: &Robot,
+    logs: &[crate::measurement::Log],
+    routes: &[crate::identification::data::Route],
+    opts: &FitOptions,
+) -> Result<()> {
     if routes.len() != 1 && routes.len() != logs.len() {
         return Err(Error::InvalidInput(format!(
             "{} routes for {} logs: give one for all or one per log",
@@ -51,6 +78,12 @@ pub fn identify_logs(
     for log in logs {
         log.check_robot(robot)?;
     }
+    Ok(())
+}
+
+/// The model every fit of `robot` starts from: the layout with friction and rotor-inertia
+/// columns, and the drive file's Stribeck law from [`FitOptions::prior`] when it has one.
+fn template(robot: &Robot, opts: &FitOptions) -> Result<PowerModel> {
     let layout = crate::dynamics::ParamLayout::new(robot, true, true);
     let mut template = PowerModel::new(robot, layout, false)?;
     // The drive file's Stribeck law, which the logs barely show: every fit takes it.
@@ -59,7 +92,21 @@ pub fn identify_logs(
     {
         template.stribeck = prior.stribeck.clone();
     }
-    let lag = super::lag::find_lag(robot, &template, logs, routes, opts)?;
+    Ok(template)
+}
+
+/// The samples of all `logs`, prepared along `routes` with the power lagging the joints by
+/// `lag` s, pooled for the fit (each motor's power too when every log has it and
+/// [`FitOptions::motor_power`] asks for it), with [`FitOptions::prior`] and its settled
+/// floor when given.
+fn pooled_samples(
+    robot: &Robot,
+    template: &PowerModel,
+    logs: &[crate::measurement::Log],
+    routes: &[crate::identification::data::Route],
+    lag: f64,
+    opts: &FitOptions,
+) -> Result<Samples> {
     let prepared = logs
         .iter()
         .enumerate()
@@ -73,29 +120,32 @@ pub fn identify_logs(
             .all(|p| p.p_joint.len() == p.states.len() * robot.dof());
     let samples = Samples::new(
         robot,
-        &template,
+        template,
         &prepared,
         opts.min_speed,
         opts.max_fit_rate_hz,
         opts.folds,
         motor_power,
     )?;
-    let samples = match &opts.prior {
+    Ok(match &opts.prior {
         Some(prior) => samples
             .with_prior(prior.clone())?
-            .with_settled_floor(&template, opts.weighting)?,
+            .with_settled_floor(template, opts.weighting)?,
         None => samples,
-    };
-    let mut selection = select(&template, &samples, &opts.candidates, opts.weighting)?;
-    if opts.consistent {
-        let (model, consistent) =
-            consistent_model(robot, &samples, &selection.fit, selection.chosen, opts)?;
-        selection.fit.model = model;
-        selection.consistent = Some(consistent);
-        if let Some((estimator, alt)) = &mut selection.alternative {
-            alt.model = consistent_model(robot, &samples, alt, *estimator, opts)?.0;
-        }
-    }
+    })
+}
+
+/// Record on the selected models (the chosen one and its alternative) what the data could
+/// not show them: the lowest power the logs show, the meter's floor at each model's standby
+/// (W), the least speed fitted (rad/s); and on the chosen one the alternative, the power's
+/// lag `lag` (s) and the heaviest payload the `logs` carried (kg).
+fn annotate(
+    selection: &mut Selection,
+    samples: &Samples,
+    logs: &[crate::measurement::Log],
+    lag: f64,
+    opts: &FitOptions,
+) {
     let lowest_seen = samples.lowest_seen();
     for model in std::iter::once(&mut selection.fit.model).chain(
         selection
@@ -121,7 +171,6 @@ pub fn identify_logs(
             .map(|p| p.inertia.mass)
             .fold(0.0, f64::max),
     );
-    Ok(selection)
 }
 
 /// The model of `fit` (by `estimator`) made physically consistent
