@@ -179,3 +179,51 @@ fn identify_refuses_data_from_another_robot_and_bad_input() {
     assert_eq!(code, 1);
     assert!(err.contains("nope"), "{err}");
 }
+
+/// Identification gives the same model to the bit on one thread and on four. At 100 Hz,
+/// fitted on every state, a log has enough samples for the fit's sums to run in parallel;
+/// a parallel sum that splits where the work is stolen gave other last digits from run to
+/// run.
+#[test]
+fn identify_gives_the_same_bits_on_one_thread_and_on_four() {
+    let (traj, data) = (tmp("threads-ex.csv"), tmp("threads-run"));
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    common::run_ok(&[
+        "excite",
+        "--seed",
+        "1",
+        "--periods",
+        "1",
+        "--out",
+        &s(&traj),
+    ]);
+    common::run_ok(&[
+        "simulate",
+        "--trajectory",
+        &s(&traj),
+        "--format",
+        "csv",
+        "--sample-rate",
+        "100",
+        "--noise-seed",
+        "1",
+        "--out",
+        &s(&data),
+    ]);
+    let model = |threads: &str| {
+        let out = tmp(&format!("threads-{threads}.json"));
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_powertwin"))
+            .args(["identify", "--log", &s(&data.join("measured.csv"))])
+            .args(["--power", "bus", "--fit-rate", "100", "--out", &s(&out)])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .expect("the powertwin binary runs");
+        assert!(
+            status.status.success(),
+            "{}",
+            String::from_utf8_lossy(&status.stderr)
+        );
+        std::fs::read(out).unwrap()
+    };
+    assert!(model("1") == model("4"), "the models differ");
+}

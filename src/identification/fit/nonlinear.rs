@@ -125,7 +125,9 @@ pub(super) fn levenberg_marquardt(
 
 /// The weighted residual variance of the samples `rows` (weights `weights`) at `z` with
 /// `moved` parameters fitted: `sum w r^2 / (rows - moved)`, the noise variance that weighs a
-/// prior against them.
+/// prior against them. Summed in parallel over fixed blocks of [`PARALLEL_SAMPLES`] and the
+/// blocks' sums in order, so the result does not depend on the threads (a parallel `sum`
+/// splits where the work is stolen, and floating-point addition is not associative).
 pub(super) fn residual_variance(
     s: &Samples,
     rows: &[usize],
@@ -133,12 +135,17 @@ pub(super) fn residual_variance(
     z: &DVector<f64>,
     moved: usize,
 ) -> f64 {
-    let r2: f64 = rows
-        .par_iter()
-        .zip(weights)
-        .with_min_len(PARALLEL_SAMPLES)
-        .map(|(&m, w)| w * (s.power(m, z, None) - s.y[m]).powi(2))
-        .sum();
+    let blocks: Vec<f64> = rows
+        .par_chunks(PARALLEL_SAMPLES)
+        .zip(weights.par_chunks(PARALLEL_SAMPLES))
+        .map(|(rows, weights)| {
+            rows.iter()
+                .zip(weights)
+                .map(|(&m, w)| w * (s.power(m, z, None) - s.y[m]).powi(2))
+                .sum::<f64>()
+        })
+        .collect();
+    let r2: f64 = blocks.iter().sum();
     r2 / rows.len().saturating_sub(moved).max(1) as f64
 }
 
