@@ -43,14 +43,45 @@ impl PowerModel {
                 "integration step {dt} s must be positive"
             )));
         }
-        let np = self.params();
+        let sums = self.integrate(robot, traj, events, efficiency, dt)?;
+        let duration = traj.duration();
+        let energy_j = if self.signal.clipped() {
+            sums.grid
+        } else {
+            sums.motor
+        };
+        let alternative_j = self.alternative.as_ref().map(|_| sums.alternative);
+        let stribeck_j = (!self.stribeck.is_empty()).then_some(sums.stribeck);
+        let sigma = self.sigma(&sums, energy_j, alternative_j, stribeck_j, duration);
+        Ok(Prediction {
+            energy_j,
+            interval_j: 1.96 * sigma,
+            motor_j: sums.motor,
+            grid_j: sums.grid,
+            duration_s: duration,
+            below_seen_j: sums.unseen,
+            unseen_load_j: sums.unseen_load,
+            alternative_j,
+            stribeck_j,
+            rest_s: sums.rest,
+        })
+    }
+
+    /// The first stage of [`PowerModel::predict`]: the trapezoid integrals along `traj` at
+    /// steps of at most `dt` (s) that the prediction and its interval need.
+    fn integrate(
+        &self,
+        robot: &Robot,
+        traj: &dyn Trajectory,
+        events: &[PayloadEvent],
+        efficiency: f64,
+        dt: f64,
+    ) -> Result<Integrals> {
         let steps = (traj.duration() / dt).ceil().max(1.0) as usize;
         let h = traj.duration() / steps as f64;
         let t: Vec<f64> = (0..=steps).map(|k| k as f64 * h).collect();
         let clipped = self.signal.clipped();
         let alternative = self.alternative.as_deref();
-        let (mut motor, mut grid, mut active, mut unseen) = (0.0, 0.0, 0.0, 0.0);
-        let (mut unseen_load, mut alt_energy, mut stribeck_energy) = (0.0, 0.0, 0.0);
         let lowest_seen = if clipped { self.lowest_seen } else { None };
         let floor = if clipped {
             self.bus_floor.unwrap_or(0.0)
@@ -58,79 +89,79 @@ impl PowerModel {
             0.0
         };
         let standby: f64 = self.constant.iter().sum();
-        let mut g = vec![0.0; np];
+        let mut sums = Integrals {
+            gradient: vec![0.0; self.params()],
+            ..Integrals::default()
+        };
         let coulomb = self.coulomb_params();
         let mut k = 0usize;
-        // Time at rest, s: every joint slower than the least speed the fit saw.
-        let mut rest = 0.0;
         let rest_below = self.min_speed.unwrap_or(0.0);
         self.each_state(robot, traj, events, efficiency, &t, |e| {
             let weight = h * if k == 0 || k == steps { 0.5 } else { 1.0 };
             k += 1;
             if e.dq.iter().all(|v| v.abs() < rest_below) {
-                rest += weight;
+                sums.rest += weight;
             }
             let total: f64 = e.p.iter().sum();
-            motor += weight * total;
-            grid += weight * total.max(floor);
+            sums.motor += weight * total;
+            sums.grid += weight * total.max(floor);
             let signal = self.reading(total);
-            active += weight * (signal - standby).abs();
+            sums.active += weight * (signal - standby).abs();
             if let Some(low) = lowest_seen {
                 // The reading below `low` lies between the power clipped at 0 and `low`.
-                unseen += weight * (low - total.max(0.0)).max(0.0);
+                sums.unseen += weight * (low - total.max(0.0)).max(0.0);
             }
-            unseen_load += weight * self.unseen_load_power(e);
+            sums.unseen_load += weight * self.unseen_load_power(e);
             if let (Some(alt), Some(p)) = (alternative, e.alternative_p) {
                 // What the alternative's own `predict` integrates: its own meter's reading.
-                alt_energy += weight * alt.reading(p);
+                sums.alternative += weight * alt.reading(p);
             }
             if let Some(p) = e.stribeck_p {
-                stribeck_energy += weight * self.reading(p);
+                sums.stribeck += weight * self.reading(p);
             }
             if !(clipped && total < floor) {
-                self.add_power_gradient(e, &coulomb, weight, &mut g);
+                self.add_power_gradient(e, &coulomb, weight, &mut sums.gradient);
             }
         })?;
+        Ok(sums)
+    }
+
+    /// The second stage of [`PowerModel::predict`]: the standard deviation (J) of a predicted
+    /// `energy_j` (J) over `duration` (s), from its integrals `sums` and the energies of the
+    /// other friction structure and of the whole Stribeck rise, where the model has them.
+    fn sigma(
+        &self,
+        sums: &Integrals,
+        energy_j: f64,
+        alternative_j: Option<f64>,
+        stribeck_j: Option<f64>,
+        duration: f64,
+    ) -> f64 {
+        let np = self.params();
         // The chosen structure's parameter variance, taken whole where the prediction is the
         // mean of the two structures: both were fitted on the same logs, so their parameter
         // errors move together and the mean's variance is about either's (the chosen one's
         // gradient halved would leave out the other's half).
         let param_var = if self.covariance.len() == np * np {
             let cov = DMatrix::from_row_slice(np, np, &self.covariance);
-            let g = nalgebra::DVector::from_column_slice(&g);
+            let g = nalgebra::DVector::from_column_slice(&sums.gradient);
             (g.transpose() * cov * &g)[(0, 0)].max(0.0)
         } else {
             0.0
         };
-        let duration = traj.duration();
-        let active = active.max(self.structure_active * duration);
-        let energy_j = if clipped { grid } else { motor };
-        let alternative_j = alternative.map(|_| alt_energy);
-        let stribeck_j = (!self.stribeck.is_empty()).then_some(stribeck_energy);
+        let active = sums.active.max(self.structure_active * duration);
         let disagreement = alternative_j.map_or(0.0, |e| energy_j - e);
         let stribeck_rest = stribeck_j.map_or(0.0, |e| e - energy_j);
-        let rest_share = (rest / (tuning::FOLD_ERROR_REST_SHARE * duration)).min(1.0);
-        let sigma = (param_var
+        let rest_share = (sums.rest / (tuning::FOLD_ERROR_REST_SHARE * duration)).min(1.0);
+        (param_var
             + (self.structure_sigma * duration).powi(2)
             + (self.structure_rel * active).powi(2)
             + rest_share * (self.structure_fold * duration).powi(2)
-            + (0.5 * unseen).powi(2)
-            + (tuning::UNSEEN_LOAD_LOSS * unseen_load).powi(2)
+            + (0.5 * sums.unseen).powi(2)
+            + (tuning::UNSEEN_LOAD_LOSS * sums.unseen_load).powi(2)
             + disagreement.powi(2)
             + stribeck_rest.powi(2))
-        .sqrt();
-        Ok(Prediction {
-            energy_j,
-            interval_j: 1.96 * sigma,
-            motor_j: motor,
-            grid_j: grid,
-            duration_s: duration,
-            below_seen_j: unseen,
-            unseen_load_j: unseen_load,
-            alternative_j,
-            stribeck_j,
-            rest_s: rest,
-        })
+        .sqrt()
     }
 
     /// Add `weight` times the gradient of state `e`'s predicted power in `z = [theta, copper,
@@ -186,6 +217,29 @@ impl PowerModel {
             _ => 0.0,
         }
     }
+}
+
+/// The integrals along a motion that [`PowerModel::predict`] needs (J unless noted).
+#[derive(Debug, Default)]
+struct Integrals {
+    /// The predicted motor sum.
+    motor: f64,
+    /// `max(P, F)`, `F` the floor of a clipped signal (0 for an unclipped one).
+    grid: f64,
+    /// The active energy `integral |reading - P0| dt`.
+    active: f64,
+    /// What a clipped signal spends below the lowest level the logs show.
+    unseen: f64,
+    /// The mechanical energy a payload heavier than the logs carried moves beyond their load.
+    unseen_load: f64,
+    /// The other friction structure's reading.
+    alternative: f64,
+    /// The reading with the whole of the drive file's Stribeck rise.
+    stribeck: f64,
+    /// Time at rest, s: every joint slower than the least speed the fit saw.
+    rest: f64,
+    /// The gradient of the energy in the covariance's parameters.
+    gradient: Vec<f64>,
 }
 
 /// An energy prediction with its uncertainty.
