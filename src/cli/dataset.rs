@@ -10,8 +10,9 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use powertwin::dataset::bulk::{BulkFamily, BulkSpec, Shard, item, item_duration};
 use powertwin::dataset::schedule::longest_first;
+use powertwin::model::payload::Payload;
 
-use super::TwinArgs;
+use super::{Setup, TruthArgs, TwinArgs};
 
 /// Arguments of `dataset`.
 ///
@@ -51,21 +52,8 @@ const DEFAULT_TOOL: &str = "liu2018_tool";
 /// Run `dataset`.
 pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
     let setup = args.twin.setup()?;
-    let tool = match setup.payload.clone() {
-        Some(p) => p,
-        None => {
-            crate::cli::warn_foreign_payload(DEFAULT_TOOL, &setup.robot);
-            powertwin::model::builtin::payload(DEFAULT_TOOL)?
-        }
-    };
-    let truth = args.twin.truth_args();
-    let family = match truth.family_seed() {
-        Some(seed) => Some(BulkFamily {
-            table: truth.family_table()?,
-            seed,
-        }),
-        None => None,
-    };
+    let tool = item_tool(&setup)?;
+    let family = bulk_family(args.twin.truth_args())?;
     let spec = BulkSpec {
         robot: &setup.robot,
         urdf: setup.urdf.clone(),
@@ -78,8 +66,38 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let todo: Vec<usize> = args
-        .shard
+    let todo = pending_items(args);
+    let skipped = args.shard.items(args.count).count() - todo.len();
+    let batch = write_items(args, &spec, &todo);
+    Ok(summarise(todo.len(), skipped, &batch))
+}
+
+/// The tool of every item: the setup's --payload, else the built-in default tool (warning
+/// when it was not made for this robot).
+fn item_tool(setup: &Setup) -> Result<Payload> {
+    Ok(match setup.payload.clone() {
+        Some(p) => p,
+        None => {
+            crate::cli::warn_foreign_payload(DEFAULT_TOOL, &setup.robot);
+            powertwin::model::builtin::payload(DEFAULT_TOOL)?
+        }
+    })
+}
+
+/// The robot family items run instead of scaled drives (`--truth family:SEED`), if any.
+fn bulk_family(truth: &TruthArgs) -> Result<Option<BulkFamily>> {
+    Ok(match truth.family_seed() {
+        Some(seed) => Some(BulkFamily {
+            table: truth.family_table()?,
+            seed,
+        }),
+        None => None,
+    })
+}
+
+/// Global indices of this shard's items that have no `meta.json` in the output directory yet.
+fn pending_items(args: &DatasetArgs) -> Vec<usize> {
+    args.shard
         .items(args.count)
         .filter(|j| {
             !args
@@ -88,8 +106,21 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
                 .join("meta.json")
                 .exists()
         })
-        .collect();
-    let skipped = args.shard.items(args.count).count() - todo.len();
+        .collect()
+}
+
+/// What a batch of items came to.
+struct Batch {
+    /// The error of every item that failed, with its context chain.
+    failed: Vec<String>,
+    /// Motion time simulated by the written items, s.
+    simulated: f64,
+    /// Wall-clock time of the batch, s.
+    wall: f64,
+}
+
+/// Simulates and writes the items `todo` on all cores, longest first, with a progress bar.
+fn write_items(args: &DatasetArgs, spec: &BulkSpec, todo: &[usize]) -> Batch {
     let bar = ProgressBar::new(todo.len() as u64).with_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} items, {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -97,10 +128,10 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
     let simulated_ms = AtomicUsize::new(0);
     let start = Instant::now();
     // Longest items first, so the batch ends without one long run alone on a core.
-    let duration = |&j: &usize| item_duration(&spec, j).unwrap_or(f64::INFINITY);
-    let results: Vec<Result<()>> = longest_first(&todo, duration, |&j| {
+    let duration = |&j: &usize| item_duration(spec, j).unwrap_or(f64::INFINITY);
+    let results: Vec<Result<()>> = longest_first(todo, duration, |&j| {
         let dir = args.out.join(format!("item_{j:06}"));
-        let (ds, _) = item(&spec, j).with_context(|| format!("item {j}"))?;
+        let (ds, _) = item(spec, j).with_context(|| format!("item {j}"))?;
         ds.write(&dir, args.twin.format)
             .with_context(|| format!("writing {}", dir.display()))?;
         let total = simulated_ms.fetch_add(
@@ -123,19 +154,34 @@ pub fn run(args: &DatasetArgs) -> Result<ExitCode> {
         .collect();
     let wall = start.elapsed().as_secs_f64();
     let simulated = simulated_ms.load(Ordering::Relaxed) as f64 / 1e3;
+    Batch {
+        failed,
+        simulated,
+        wall,
+    }
+}
+
+/// Prints the batch's counts and throughput and every failure; the exit code is 1 when an
+/// item failed.
+fn summarise(todo: usize, skipped: usize, batch: &Batch) -> ExitCode {
+    let Batch {
+        failed,
+        simulated,
+        wall,
+    } = batch;
     eprintln!(
         "{} items written, {skipped} already present, {} failed; {simulated:.0} s simulated in {wall:.1} s ({:.0} simulated s per wall s on {} threads)",
-        todo.len() - failed.len(),
+        todo - failed.len(),
         failed.len(),
         simulated / wall.max(1e-9),
         rayon::current_num_threads()
     );
     if failed.is_empty() {
-        Ok(ExitCode::SUCCESS)
+        ExitCode::SUCCESS
     } else {
-        for f in &failed {
+        for f in failed {
             eprintln!("error: {f}");
         }
-        Ok(ExitCode::from(1))
+        ExitCode::from(1)
     }
 }

@@ -79,74 +79,10 @@ impl PointToPoint {
         amax: &[f64],
         options: &PointToPointOptions,
     ) -> Result<PointToPoint> {
-        if points.len() < 2 {
-            return Err(Error::InvalidInput(format!(
-                "a point-to-point motion needs at least 2 points, got {}",
-                points.len()
-            )));
-        }
-        let dof = points[0].len();
-        if dof == 0 {
-            return Err(Error::InvalidInput("via points without joints".into()));
-        }
-        for (k, p) in points.iter().enumerate() {
-            if p.len() != dof {
-                return Err(Error::InvalidInput(format!(
-                    "via point {} has {} joints, point 1 has {dof}",
-                    k + 1,
-                    p.len()
-                )));
-            }
-            ensure_finite(p, &format!("via point {}", k + 1))?;
-        }
-        for (name, lim) in [("vmax", vmax), ("amax", amax)] {
-            if lim.len() != dof {
-                return Err(Error::InvalidInput(format!(
-                    "{name} has {} values, the via points have {dof} joints",
-                    lim.len()
-                )));
-            }
-            if let Some(i) = lim.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
-                return Err(Error::InvalidInput(format!(
-                    "{name}[{}] is {} (must be finite and positive)",
-                    i + 1,
-                    lim[i]
-                )));
-            }
-        }
-        let PointToPointOptions { slowdown, dwell_s } = *options;
-        if !(slowdown.is_finite() && slowdown >= 1.0) {
-            return Err(Error::InvalidInput(format!(
-                "slow-down factor {slowdown} must be finite and at least 1"
-            )));
-        }
-        if !(dwell_s.is_finite() && dwell_s >= 0.0) {
-            return Err(Error::InvalidInput(format!(
-                "dwell time {dwell_s} s must be finite and non-negative"
-            )));
-        }
-        let mut pieces = Vec::with_capacity(2 * points.len());
-        let mut arrivals = Vec::with_capacity(points.len());
-        let mut t = 0.0;
-        let mut push = |t: &mut f64, duration: f64, from: usize, to: usize| {
-            if duration > 0.0 {
-                pieces.push(Piece {
-                    start: *t,
-                    duration,
-                    from,
-                    to,
-                });
-                *t += duration;
-            }
-        };
-        for k in 0..points.len() {
-            if k > 0 {
-                let d = slowdown * min_duration(&points[k - 1], &points[k], vmax, amax);
-                push(&mut t, d, k - 1, k);
-            }
-            arrivals.push(t);
-            push(&mut t, dwell_s, k, k);
-        }
+        let dof = check_points(&points)?;
+        check_limits(dof, vmax, amax)?;
+        check_options(options)?;
+        let (pieces, arrivals, t) = plan_pieces(&points, vmax, amax, options);
         if pieces.is_empty() {
             return Err(Error::InvalidInput(
                 "all via points coincide and there is no dwell: the motion has zero duration"
@@ -175,6 +111,106 @@ impl PointToPoint {
     pub fn arrival_times(&self) -> &[f64] {
         &self.arrivals
     }
+}
+
+/// Checks that there are at least 2 via points, all with the same non-zero number of
+/// joints and finite coordinates (rad); returns that number of joints.
+fn check_points(points: &[Vec<f64>]) -> Result<usize> {
+    if points.len() < 2 {
+        return Err(Error::InvalidInput(format!(
+            "a point-to-point motion needs at least 2 points, got {}",
+            points.len()
+        )));
+    }
+    let dof = points[0].len();
+    if dof == 0 {
+        return Err(Error::InvalidInput("via points without joints".into()));
+    }
+    for (k, p) in points.iter().enumerate() {
+        if p.len() != dof {
+            return Err(Error::InvalidInput(format!(
+                "via point {} has {} joints, point 1 has {dof}",
+                k + 1,
+                p.len()
+            )));
+        }
+        ensure_finite(p, &format!("via point {}", k + 1))?;
+    }
+    Ok(dof)
+}
+
+/// Checks that the velocity limits `vmax` (rad/s) and acceleration limits `amax` (rad/s^2)
+/// have `dof` values each, all finite and positive (`vmax` first).
+fn check_limits(dof: usize, vmax: &[f64], amax: &[f64]) -> Result<()> {
+    for (name, lim) in [("vmax", vmax), ("amax", amax)] {
+        if lim.len() != dof {
+            return Err(Error::InvalidInput(format!(
+                "{name} has {} values, the via points have {dof} joints",
+                lim.len()
+            )));
+        }
+        if let Some(i) = lim.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(Error::InvalidInput(format!(
+                "{name}[{}] is {} (must be finite and positive)",
+                i + 1,
+                lim[i]
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that the slow-down factor is finite and at least 1, and the dwell time (s) finite
+/// and non-negative.
+fn check_options(options: &PointToPointOptions) -> Result<()> {
+    let PointToPointOptions { slowdown, dwell_s } = *options;
+    if !(slowdown.is_finite() && slowdown >= 1.0) {
+        return Err(Error::InvalidInput(format!(
+            "slow-down factor {slowdown} must be finite and at least 1"
+        )));
+    }
+    if !(dwell_s.is_finite() && dwell_s >= 0.0) {
+        return Err(Error::InvalidInput(format!(
+            "dwell time {dwell_s} s must be finite and non-negative"
+        )));
+    }
+    Ok(())
+}
+
+/// Lays out the pieces in time: the options' dwell (s) at every via point and the shortest
+/// blend, stretched by the slow-down factor, between consecutive ones, skipping pieces of zero
+/// duration. Returns the pieces, the arrival time at each via point (s) and the total
+/// duration (s).
+fn plan_pieces(
+    points: &[Vec<f64>],
+    vmax: &[f64],
+    amax: &[f64],
+    options: &PointToPointOptions,
+) -> (Vec<Piece>, Vec<f64>, f64) {
+    let PointToPointOptions { slowdown, dwell_s } = *options;
+    let mut pieces = Vec::with_capacity(2 * points.len());
+    let mut arrivals = Vec::with_capacity(points.len());
+    let mut t = 0.0;
+    let mut push = |t: &mut f64, duration: f64, from: usize, to: usize| {
+        if duration > 0.0 {
+            pieces.push(Piece {
+                start: *t,
+                duration,
+                from,
+                to,
+            });
+            *t += duration;
+        }
+    };
+    for k in 0..points.len() {
+        if k > 0 {
+            let d = slowdown * min_duration(&points[k - 1], &points[k], vmax, amax);
+            push(&mut t, d, k - 1, k);
+        }
+        arrivals.push(t);
+        push(&mut t, dwell_s, k, k);
+    }
+    (pieces, arrivals, t)
 }
 
 /// Shortest quintic blend duration from `a` to `b` within `vmax`, `amax` (s).

@@ -187,70 +187,10 @@ impl Sampled {
         dq: Option<&[Vec<f64>]>,
         ddq: Option<&[Vec<f64>]>,
     ) -> std::result::Result<Sampled, Invalid> {
-        let n = t.len();
-        if n < 2 {
-            return Err(Invalid::general(format!(
-                "a sampled trajectory needs at least 2 samples, got {n}"
-            )));
-        }
+        check_samples(t, q, dq, ddq)?;
         let dof = q.len();
-        if dof == 0 {
-            return Err(Invalid::general("no joint positions given".into()));
-        }
-        if ddq.is_some() && dq.is_none() {
-            return Err(Invalid::general(
-                "accelerations given without velocities".into(),
-            ));
-        }
-        if let Some(k) = t.iter().position(|v| !v.is_finite()) {
-            return Err(Invalid::at(k, format!("time is {} (must be finite)", t[k])));
-        }
-        for k in 1..n {
-            if t[k] <= t[k - 1] {
-                return Err(Invalid::at(
-                    k,
-                    format!(
-                        "time {} s does not increase (previous sample at {} s)",
-                        t[k],
-                        t[k - 1]
-                    ),
-                ));
-            }
-        }
-        for (name, series) in [("q", Some(q)), ("dq", dq), ("ddq", ddq)] {
-            let Some(series) = series else { continue };
-            check_series(name, series, dof, n)?;
-        }
         let knots: Vec<f64> = t.iter().map(|&v| v - t[0]).collect();
-        let intervals = n - 1;
-        let mut coeffs = Vec::with_capacity(dof * intervals);
-        let interpolation = match (dq, ddq) {
-            (Some(dq), Some(ddq)) => {
-                for i in 0..dof {
-                    for k in 0..intervals {
-                        coeffs.push(quintic_hermite(
-                            knots[k + 1] - knots[k],
-                            [q[i][k], dq[i][k], ddq[i][k]],
-                            [q[i][k + 1], dq[i][k + 1], ddq[i][k + 1]],
-                        ));
-                    }
-                }
-                Interpolation::QuinticHermite
-            }
-            (Some(dq), None) => {
-                for i in 0..dof {
-                    push_cubic_hermite(&mut coeffs, &knots, &q[i], &dq[i]);
-                }
-                Interpolation::CubicHermite
-            }
-            (None, _) => {
-                for qi in q {
-                    let slopes = spline_slopes(&knots, qi);
-                    push_cubic_hermite(&mut coeffs, &knots, qi, &slopes);
-                }
-                Interpolation::CubicSpline
-            }
-        };
+        let (coeffs, interpolation) = interpolate(&knots, q, dq, ddq);
         if let Some(c) = coeffs.iter().flatten().find(|c| !c.is_finite()) {
             return Err(Invalid::general(format!(
                 "interpolation overflowed (coefficient {c}); are the sample times too close?"
@@ -265,6 +205,100 @@ impl Sampled {
             move_weights: None,
         })
     }
+}
+
+/// Check the samples of [`Sampled::build`]: at least 2 times (s), finite and strictly
+/// increasing, at least one joint, velocities whenever accelerations are given, and every
+/// given series with one finite value per joint and sample.
+fn check_samples(
+    t: &[f64],
+    q: &[Vec<f64>],
+    dq: Option<&[Vec<f64>]>,
+    ddq: Option<&[Vec<f64>]>,
+) -> std::result::Result<(), Invalid> {
+    let n = t.len();
+    if n < 2 {
+        return Err(Invalid::general(format!(
+            "a sampled trajectory needs at least 2 samples, got {n}"
+        )));
+    }
+    let dof = q.len();
+    if dof == 0 {
+        return Err(Invalid::general("no joint positions given".into()));
+    }
+    if ddq.is_some() && dq.is_none() {
+        return Err(Invalid::general(
+            "accelerations given without velocities".into(),
+        ));
+    }
+    check_times(t)?;
+    for (name, series) in [("q", Some(q)), ("dq", dq), ("ddq", ddq)] {
+        let Some(series) = series else { continue };
+        check_series(name, series, dof, n)?;
+    }
+    Ok(())
+}
+
+/// Check that the sample times `t` (s) are finite and strictly increasing.
+fn check_times(t: &[f64]) -> std::result::Result<(), Invalid> {
+    if let Some(k) = t.iter().position(|v| !v.is_finite()) {
+        return Err(Invalid::at(k, format!("time is {} (must be finite)", t[k])));
+    }
+    for k in 1..t.len() {
+        if t[k] <= t[k - 1] {
+            return Err(Invalid::at(
+                k,
+                format!(
+                    "time {} s does not increase (previous sample at {} s)",
+                    t[k],
+                    t[k - 1]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Polynomial coefficients of every joint on every interval between `knots` (s from the
+/// first sample), joint-major, and the interpolant: quintic Hermite with velocities and
+/// accelerations, cubic Hermite with velocities only, else a cubic spline through `q`.
+fn interpolate(
+    knots: &[f64],
+    q: &[Vec<f64>],
+    dq: Option<&[Vec<f64>]>,
+    ddq: Option<&[Vec<f64>]>,
+) -> (Vec<[f64; 6]>, Interpolation) {
+    let dof = q.len();
+    let intervals = knots.len() - 1;
+    let mut coeffs = Vec::with_capacity(dof * intervals);
+    let interpolation = match (dq, ddq) {
+        (Some(dq), Some(ddq)) => {
+            for i in 0..dof {
+                for k in 0..intervals {
+                    coeffs.push(quintic_hermite(
+                        knots[k + 1] - knots[k],
+                        [q[i][k], dq[i][k], ddq[i][k]],
+                        [q[i][k + 1], dq[i][k + 1], ddq[i][k + 1]],
+                    ));
+                }
+            }
+            Interpolation::QuinticHermite
+        }
+        (Some(dq), None) => {
+            for i in 0..dof {
+                push_cubic_hermite(&mut coeffs, knots, &q[i], &dq[i]);
+            }
+            Interpolation::CubicHermite
+        }
+        (None, _) => {
+            for qi in q {
+                let slopes = spline_slopes(knots, qi);
+                push_cubic_hermite(&mut coeffs, knots, qi, &slopes);
+            }
+            Interpolation::CubicSpline
+        }
+    };
+    (coeffs, interpolation)
 }
 
 impl Trajectory for Sampled {

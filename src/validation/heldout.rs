@@ -139,6 +139,26 @@ pub struct Motion {
 /// Errors: `opts.accel_limits` or `opts.linear_start` of the wrong length, a start range that
 /// is not finite and ordered; no motion of a kind within the limits after 50 draws.
 pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
+    check_motion_options(robot, opts)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    (0..opts.count)
+        .map(|k| {
+            let (payload_kg, events) = draw_payload(k, opts.max_payload_kg, &mut rng)?;
+            let (kind, trajectory, speed) = draw_trajectory(k, robot, opts, &mut rng)?;
+            Ok(Motion {
+                kind,
+                trajectory,
+                events,
+                payload_kg,
+                tcp_speed_m_s: speed,
+            })
+        })
+        .collect()
+}
+
+/// Checks that `opts.accel_limits` and `opts.linear_start` have one entry per joint and that
+/// every start range (rad) is finite and ordered.
+fn check_motion_options(robot: &Robot, opts: &HeldoutOptions) -> Result<()> {
     robot.check_len(&opts.accel_limits, "accel_limits")?;
     if opts.linear_start.len() != robot.dof() {
         return Err(Error::InvalidInput(format!(
@@ -160,68 +180,78 @@ pub fn motions(robot: &Robot, opts: &HeldoutOptions) -> Result<Vec<Motion>> {
             r.1
         )));
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
-    (0..opts.count)
-        .map(|k| {
-            let payload_kg = if k % 4 == 0 {
-                0.0
-            } else {
-                rng.random_range(0.5..=opts.max_payload_kg)
-            };
-            let events = if payload_kg > 0.0 {
-                vec![PayloadEvent {
-                    t_s: 0.0,
-                    payload: Some(Payload::cube(
-                        &format!("load {payload_kg:.2} kg"),
-                        payload_kg,
-                        [0.0, 0.0, 0.06].into(),
-                    )?),
-                }]
-            } else {
-                Vec::new()
-            };
-            let (kind, trajectory, speed): (_, Box<dyn Trajectory + Send + Sync>, _) = match k % 3 {
-                0 => {
-                    let o = RandomFourierOptions {
-                        base_freq_hz: rng.random_range(0.1..=0.25),
-                        min_amplitude: 0.3,
-                        accel_limits: opts.accel_limits.clone(),
-                        ..RandomFourierOptions::default()
-                    };
-                    (
-                        "fourier",
-                        Box::new(random_fourier(robot, &mut rng, &o)?),
-                        None,
-                    )
-                }
-                1 => {
-                    let o = RandomPointToPointOptions {
-                        points: 4,
-                        max_slowdown: 3.0,
-                        dwell_s: 0.3,
-                        accel_limits: opts.accel_limits.clone(),
-                        ..RandomPointToPointOptions::default()
-                    };
-                    (
-                        "point-to-point",
-                        Box::new(random_point_to_point(robot, &mut rng, &o)?),
-                        None,
-                    )
-                }
-                _ => {
-                    let (m, v) = linear(robot, opts, &mut rng)?;
-                    ("linear", Box::new(m), Some(v))
-                }
-            };
-            Ok(Motion {
-                kind,
-                trajectory,
-                events,
+    Ok(())
+}
+
+/// The payload of motion `k`: none for every fourth motion, else a cube of uniformly drawn
+/// mass up to `max_payload_kg`, held from the start. Returns the mass (kg) and the payload
+/// timeline.
+fn draw_payload(
+    k: usize,
+    max_payload_kg: f64,
+    rng: &mut ChaCha8Rng,
+) -> Result<(f64, Vec<PayloadEvent>)> {
+    let payload_kg = if k.is_multiple_of(4) {
+        0.0
+    } else {
+        rng.random_range(0.5..=max_payload_kg)
+    };
+    let events = if payload_kg > 0.0 {
+        vec![PayloadEvent {
+            t_s: 0.0,
+            payload: Some(Payload::cube(
+                &format!("load {payload_kg:.2} kg"),
                 payload_kg,
-                tcp_speed_m_s: speed,
-            })
-        })
-        .collect()
+                [0.0, 0.0, 0.06].into(),
+            )?),
+        }]
+    } else {
+        Vec::new()
+    };
+    Ok((payload_kg, events))
+}
+
+/// A drawn trajectory: its kind, the trajectory and the TCP speed of a linear one, m/s.
+type DrawnTrajectory = (&'static str, Box<dyn Trajectory + Send + Sync>, Option<f64>);
+
+/// The trajectory of motion `k`, cycling through a random Fourier motion, a random
+/// point-to-point move and linear TCP moves.
+fn draw_trajectory(
+    k: usize,
+    robot: &Robot,
+    opts: &HeldoutOptions,
+    rng: &mut ChaCha8Rng,
+) -> Result<DrawnTrajectory> {
+    let drawn: DrawnTrajectory = match k % 3 {
+        0 => {
+            let o = RandomFourierOptions {
+                base_freq_hz: rng.random_range(0.1..=0.25),
+                min_amplitude: 0.3,
+                accel_limits: opts.accel_limits.clone(),
+                ..RandomFourierOptions::default()
+            };
+            ("fourier", Box::new(random_fourier(robot, rng, &o)?), None)
+        }
+        1 => {
+            let o = RandomPointToPointOptions {
+                points: 4,
+                max_slowdown: 3.0,
+                dwell_s: 0.3,
+                accel_limits: opts.accel_limits.clone(),
+                ..RandomPointToPointOptions::default()
+            };
+            (
+                "point-to-point",
+                Box::new(random_point_to_point(robot, rng, &o)?),
+                None,
+            )
+        }
+        _ => {
+            let (m, v) = linear(robot, opts, rng)?;
+            ("linear", Box::new(m), Some(v))
+        }
+    };
+    Ok(drawn)
 }
 
 /// Random linear TCP moves: from a random working pose (each joint within

@@ -12,11 +12,13 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::Dataset;
 use crate::dynamics::DriveTerms;
 use crate::error::Result;
-use crate::identification::data::{power_sample_nodes, prepare};
+use crate::identification::data::{Prepared, power_sample_nodes, prepare};
 use crate::identification::lsq::Estimate;
 use crate::identification::model::{PowerModel, Prediction};
+use crate::measurement::Log;
 use crate::model::Robot;
 use crate::model::drive::Drive;
+use crate::model::payload::PayloadEvent;
 use crate::validation::heldout::{HeldoutOptions, Motion};
 use crate::validation::rig::Rig;
 
@@ -203,12 +205,7 @@ pub fn heldout_motion(
 ) -> Result<MotionResult> {
     let robot = rig.robot;
     let dt = rig.twin.physics.dt;
-    let standby_w: f64 = rig
-        .true_drive()
-        .joints()
-        .iter()
-        .map(|j| j.standby_power)
-        .sum();
+    let standby_w = standby_power_w(rig);
     let clipped = model.signal.clipped();
     let truth = &ds.truth;
     // Truth over the logged span [t_0, t_last) and over the whole run.
@@ -227,29 +224,16 @@ pub fn heldout_motion(
     let from_log = model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
     let from_plan = model.predict(robot, m.trajectory.as_ref(), &m.events, eff, dt)?;
     let base = base_model.predict(robot, prepared.motion.as_ref(), &events, eff, dt)?;
-    // Power at the logged samples: along the log route (its clock starts at the route's
-    // origin) or along the plan (the run's clock).
-    // The logged power belongs to the motion at its sample times (the mean over each period
-    // for an averaging meter), the model's lag earlier.
     let (power_t, per_sample) = power_sample_nodes(&log.t_s, log.power_averaged);
-    let rmse = |mm: &PowerModel, plan: bool| -> Result<f64> {
-        let lagged =
-            |t0: f64| -> Vec<f64> { power_t.iter().map(|t| t - t0 - mm.power_lag_s).collect() };
-        let log_t = lagged(prepared.motion_t0_s);
-        let p = if plan {
-            mm.power_with_payloads(robot, m.trajectory.as_ref(), &m.events, eff, &lagged(0.0))?
-        } else {
-            mm.power_with_payloads(robot, prepared.motion.as_ref(), &events, eff, &log_t)?
-        };
-        let se: f64 = p
-            .chunks(per_sample)
-            .zip(&log.power_w)
-            .map(|(nodes, y)| {
-                let read = nodes.iter().map(|p| mm.reading(*p)).sum::<f64>();
-                (read / per_sample as f64 - y).powi(2)
-            })
-            .sum();
-        Ok((se / log.len() as f64).sqrt())
+    let samples = PowerSamples {
+        robot,
+        log: &log,
+        prepared: &prepared,
+        events: &events,
+        motion: m,
+        efficiency: eff,
+        power_t: &power_t,
+        per_sample,
     };
     Ok(MotionResult {
         index: k + 1,
@@ -262,16 +246,78 @@ pub fn heldout_motion(
         from_log: Scores::of(&from_log, span, span_s, standby_w),
         from_plan: Scores::of(&from_plan, whole, ds.meta.summary.duration_s, standby_w),
         baseline: Scores::of(&base, span, span_s, standby_w),
-        power_rmse_w: rmse(model, false)?,
-        plan_power_rmse_w: rmse(model, true)?,
-        baseline_power_rmse_w: rmse(base_model, false)?,
-        max_tracking_error_rad: truth
-            .q
-            .iter()
-            .zip(&truth.q_ref)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-            .fold(0.0, f64::max),
+        power_rmse_w: samples.rmse(model, false)?,
+        plan_power_rmse_w: samples.rmse(model, true)?,
+        baseline_power_rmse_w: samples.rmse(base_model, false)?,
+        max_tracking_error_rad: max_tracking_error_rad(&truth.q, &truth.q_ref),
     })
+}
+
+/// Standby power of the rig's true drives, summed over the joints, W.
+fn standby_power_w(rig: &Rig) -> f64 {
+    rig.true_drive()
+        .joints()
+        .iter()
+        .map(|j| j.standby_power)
+        .sum()
+}
+
+/// Largest deviation of the joint positions `q` from their references `q_ref` over the run,
+/// rad.
+fn max_tracking_error_rad(q: &[Vec<f64>], q_ref: &[Vec<f64>]) -> f64 {
+    q.iter()
+        .zip(q_ref)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+        .fold(0.0, f64::max)
+}
+
+/// What the power predictions of a held-out motion are scored against: the logged power and
+/// the two routes to its states, the log route (its clock starts at the route's origin) and
+/// the plan (the run's clock).
+struct PowerSamples<'a> {
+    robot: &'a Robot,
+    log: &'a Log,
+    prepared: &'a Prepared,
+    /// Known payloads on the log route's clock.
+    events: &'a [PayloadEvent],
+    motion: &'a Motion,
+    /// Efficiency known payloads enter with.
+    efficiency: f64,
+    /// Times (log clock, s) the logged power is evaluated at, `per_sample` per logged sample.
+    power_t: &'a [f64],
+    per_sample: usize,
+}
+
+impl PowerSamples<'_> {
+    /// RMSE of `mm`'s power against the logged power, W, along the plan when `plan`, else
+    /// along the log route. The logged power belongs to the motion at its sample times (the
+    /// mean over each period for an averaging meter), the model's lag earlier.
+    fn rmse(&self, mm: &PowerModel, plan: bool) -> Result<f64> {
+        let (robot, eff, per_sample) = (self.robot, self.efficiency, self.per_sample);
+        let lagged = |t0: f64| -> Vec<f64> {
+            self.power_t
+                .iter()
+                .map(|t| t - t0 - mm.power_lag_s)
+                .collect()
+        };
+        let log_t = lagged(self.prepared.motion_t0_s);
+        let p = if plan {
+            let m = self.motion;
+            mm.power_with_payloads(robot, m.trajectory.as_ref(), &m.events, eff, &lagged(0.0))?
+        } else {
+            let motion = self.prepared.motion.as_ref();
+            mm.power_with_payloads(robot, motion, self.events, eff, &log_t)?
+        };
+        let se: f64 = p
+            .chunks(per_sample)
+            .zip(&self.log.power_w)
+            .map(|(nodes, y)| {
+                let read = nodes.iter().map(|p| mm.reading(*p)).sum::<f64>();
+                (read / per_sample as f64 - y).powi(2)
+            })
+            .sum();
+        Ok((se / self.log.len() as f64).sqrt())
+    }
 }
 
 /// One row of Table 2.
