@@ -106,7 +106,44 @@ pub fn search(
 ) -> Result<PlacementSearch> {
     area.check()?;
     let half = area.half();
-    let price = |x: [f64; 4]| -> Option<Placement> {
+    let pricer = Pricer {
+        task,
+        speed_m_s,
+        bound_s,
+    };
+    let user = pricer.price([0.0; 4]).ok_or_else(|| {
+        Error::InvalidInput(format!(
+            "the task at the user's placement does not plan at {speed_m_s} m/s within \
+             {bound_s:.3} s"
+        ))
+    })?;
+    let found = grid_search(&pricer, &half, user);
+    let found = compass_search(&pricer, &half, found);
+    Ok(PlacementSearch {
+        user,
+        best: found.best,
+        evaluated: found.evaluated,
+        infeasible: found.infeasible,
+    })
+}
+
+/// Prices placements of a task: the uniform plan at `speed_m_s` (m/s), then holding until
+/// `bound_s` (s).
+struct Pricer<'a> {
+    /// The task at the user's placement.
+    task: &'a Task<'a>,
+    /// TCP speed of the uniform plan, m/s.
+    speed_m_s: f64,
+    /// Cycle-time bound, s.
+    bound_s: f64,
+}
+
+impl Pricer<'_> {
+    /// The placement at `x` (offset along base x, y, z in m, yaw about base z in rad) and its
+    /// predicted energy per cycle, J; `None` when infeasible (the plan fails, exceeds the
+    /// bound or cannot be priced).
+    fn price(&self, x: [f64; 4]) -> Option<Placement> {
+        let task = self.task;
         let p = Placement {
             offset_m: [x[0], x[1], x[2]],
             yaw_deg: x[3].to_degrees(),
@@ -118,29 +155,37 @@ pub fn search(
             scenario: &sc,
             ..*task
         };
-        let run = sc.plan(task.robot, speed_m_s, task.load_kg).ok()?;
+        let run = sc.plan(task.robot, self.speed_m_s, task.load_kg).ok()?;
         let cycle = run.motion.duration_s;
-        if cycle > bound_s {
+        if cycle > self.bound_s {
             return None;
         }
         let e = super::predict_run(&t, &run).ok()?.energy_j;
         let hold = WaitPrices::new(&t, None)
             .ok()?
-            .cheapest(bound_s - cycle)
+            .cheapest(self.bound_s - cycle)
             .energy_j;
         Some(Placement {
             cycle_time_s: cycle,
             predicted_j: e + hold,
             ..p
         })
-    };
-    let user = price([0.0; 4]).ok_or_else(|| {
-        Error::InvalidInput(format!(
-            "the task at the user's placement does not plan at {speed_m_s} m/s within \
-             {bound_s:.3} s"
-        ))
-    })?;
-    // Coarse grid: -h, 0, +h on every searched axis.
+    }
+}
+
+/// The cheapest placement found so far and the placements priced to find it.
+struct Found {
+    /// The cheapest placement.
+    best: Placement,
+    /// Placements priced.
+    evaluated: usize,
+    /// Of which infeasible.
+    infeasible: usize,
+}
+
+/// The coarse grid: `-h`, `0`, `+h` on every searched axis of the box `half` (m, m, m, rad),
+/// priced in parallel; the cheapest of them and `user`.
+fn grid_search(pricer: &Pricer, half: &[f64; 4], user: Placement) -> Found {
     let axes: Vec<Vec<f64>> = half
         .iter()
         .map(|&h| if h > 0.0 { vec![-h, 0.0, h] } else { vec![0.0] })
@@ -158,26 +203,33 @@ pub fn search(
             })
             .collect();
     }
-    let priced: Vec<Option<Placement>> = grid.par_iter().map(|&x| price(x)).collect();
-    let mut evaluated = grid.len();
-    let mut infeasible = priced.iter().filter(|p| p.is_none()).count();
-    let mut best =
+    let priced: Vec<Option<Placement>> = grid.par_iter().map(|&x| pricer.price(x)).collect();
+    let infeasible = priced.iter().filter(|p| p.is_none()).count();
+    let best =
         priced.into_iter().flatten().fold(
             user,
             |b, p| if p.predicted_j < b.predicted_j { p } else { b },
         );
-    let coords = |p: &Placement| {
-        [
-            p.offset_m[0],
-            p.offset_m[1],
-            p.offset_m[2],
-            p.yaw_deg.to_radians(),
-        ]
-    };
+    Found {
+        best,
+        evaluated: grid.len(),
+        infeasible,
+    }
+}
+
+/// The compass search from `found`: each searched axis of the box `half` (m, m, m, rad)
+/// stepped both ways by half the grid spacing, the step halved when no neighbour improves,
+/// until every step is at most 1/32 of its half-width.
+fn compass_search(pricer: &Pricer, half: &[f64; 4], found: Found) -> Found {
+    let Found {
+        mut best,
+        mut evaluated,
+        mut infeasible,
+    } = found;
     let mut step: [f64; 4] = half.map(|h| 0.5 * h);
     while step
         .iter()
-        .zip(&half)
+        .zip(half)
         .any(|(s, h)| *h > 0.0 && *s > h / 32.0)
     {
         let x0 = coords(&best);
@@ -191,7 +243,7 @@ pub fn search(
                 })
             })
             .collect();
-        let priced: Vec<Option<Placement>> = moves.par_iter().map(|&x| price(x)).collect();
+        let priced: Vec<Option<Placement>> = moves.par_iter().map(|&x| pricer.price(x)).collect();
         evaluated += moves.len();
         infeasible += priced.iter().filter(|p| p.is_none()).count();
         match priced
@@ -204,10 +256,20 @@ pub fn search(
             None => step = step.map(|s| 0.5 * s),
         }
     }
-    Ok(PlacementSearch {
-        user,
+    Found {
         best,
         evaluated,
         infeasible,
-    })
+    }
+}
+
+/// The search coordinates of placement `p`: offset along base x, y, z in m, yaw about base z
+/// in rad.
+fn coords(p: &Placement) -> [f64; 4] {
+    [
+        p.offset_m[0],
+        p.offset_m[1],
+        p.offset_m[2],
+        p.yaw_deg.to_radians(),
+    ]
 }

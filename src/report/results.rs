@@ -219,98 +219,14 @@ pub struct SweepResults {
 impl Results {
     /// The results of `outcome`; `settings` describe the run, `total_wall_s` its wall time.
     pub fn new(outcome: &Outcome, settings: Settings, total_wall_s: f64) -> Results {
-        let well: Vec<&ParamRow> = outcome
-            .parameters
-            .iter()
-            .filter(|p| p.rel_std_pct.is_some_and(|s| s < WELL_EXCITED_REL_STD_PCT))
-            .collect();
         Results {
             schema_version: SCHEMA_VERSION,
             program: Program::current(),
             settings,
-            table3: outcome
-                .steps
-                .rows
-                .iter()
-                .map(|r| Table3Row {
-                    step: r.step,
-                    joints: r.joints.clone(),
-                    design_cond_initial: r.design_cond_initial,
-                    design_cond_final: r.design_cond_final,
-                    identified: r.estimate.names.clone(),
-                    residual_rms_w: r.estimate.residual_rms,
-                    simulated_j: r.simulated_j,
-                    predicted_j: r.predicted_j,
-                    error_pct: r.error_pct,
-                })
-                .collect(),
-            estimators: outcome
-                .estimators
-                .iter()
-                .map(|e| Estimator {
-                    method: e.method.clone(),
-                    predicted_j: e.predicted_j.clone(),
-                    error_pct: e.error_pct.clone(),
-                    max_abs_error_pct: e.max_abs_error_pct,
-                    consistency: e.consistency.clone(),
-                    table2: e.parameters.clone(),
-                })
-                .collect(),
+            table3: table3_rows(outcome),
+            estimators: estimators(outcome),
             heldout: outcome.heldout.clone(),
-            model: ModelInfo {
-                name: outcome.model_name(),
-                cv: outcome.idset.selection.scores.clone(),
-                structure_sigma_w: outcome.model.structure_sigma,
-                structure_rel: outcome.model.structure_rel,
-                structure_fold_w: outcome.model.structure_fold,
-                structure_active_w: outcome.model.structure_active,
-                lowest_seen_w: outcome.model.lowest_seen,
-                bus_floor_w: outcome.model.bus_floor,
-                weighting: outcome.idset.weighting,
-                consistent: outcome.idset.selection.consistent.is_some(),
-                motor_power: outcome.idset.selection.motor_power,
-                design: DesignInfo {
-                    criterion: outcome.idset.criterion,
-                    rounds: outcome.idset.rounds,
-                    stacked_cond: outcome.idset.set_cond,
-                    wall_s: outcome.idset.design_s,
-                },
-                excitation_conds: outcome.idset.conds.clone(),
-                excitation_duration_s: outcome
-                    .idset
-                    .trajectories
-                    .iter()
-                    .take(outcome.idset.conds.len())
-                    .map(|t| t.duration())
-                    .collect(),
-                loads_kg: outcome
-                    .idset
-                    .payloads
-                    .iter()
-                    .map(|e| {
-                        e.iter()
-                            .filter_map(|e| e.payload.as_ref())
-                            .fold(0.0, |m, p| m + p.inertia.mass)
-                    })
-                    .collect(),
-                standby: outcome
-                    .idset
-                    .standby
-                    .as_ref()
-                    .map(|(pose, tau)| StandbyInfo {
-                        pose_rad: pose.clone(),
-                        gravity_torque_nm: tau.clone(),
-                    }),
-                residual_rms_w: outcome.idset.selection.fit.estimate.residual_rms,
-                well_determined: well.len(),
-                well_determined_max_error_pct: well
-                    .iter()
-                    .filter_map(|p| p.error_pct)
-                    .map(f64::abs)
-                    .reduce(f64::max),
-                parameters: outcome.model.theta.len(),
-                table2: outcome.parameters.clone(),
-            },
+            model: ModelInfo::of(outcome),
             table4: outcome.cases.rows.clone(),
             sweep: SweepResults {
                 cells: outcome.sweep.cells.clone(),
@@ -322,4 +238,114 @@ impl Results {
             total_wall_s,
         }
     }
+}
+
+/// Table 3 of `outcome`: one row per identification step.
+fn table3_rows(outcome: &Outcome) -> Vec<Table3Row> {
+    outcome
+        .steps
+        .rows
+        .iter()
+        .map(|r| Table3Row {
+            step: r.step,
+            joints: r.joints.clone(),
+            design_cond_initial: r.design_cond_initial,
+            design_cond_final: r.design_cond_final,
+            identified: r.estimate.names.clone(),
+            residual_rms_w: r.estimate.residual_rms,
+            simulated_j: r.simulated_j,
+            predicted_j: r.predicted_j,
+            error_pct: r.error_pct,
+        })
+        .collect()
+}
+
+/// Every estimator of `outcome` on the steps' data, with its Table 2.
+fn estimators(outcome: &Outcome) -> Vec<Estimator> {
+    outcome
+        .estimators
+        .iter()
+        .map(|e| Estimator {
+            method: e.method.clone(),
+            predicted_j: e.predicted_j.clone(),
+            error_pct: e.error_pct.clone(),
+            max_abs_error_pct: e.max_abs_error_pct,
+            consistency: e.consistency.clone(),
+            table2: e.parameters.clone(),
+        })
+        .collect()
+}
+
+impl ModelInfo {
+    /// The model `outcome` used downstream: its cross-validation, structure errors,
+    /// identification set and Table 2 against the twin's truth.
+    fn of(outcome: &Outcome) -> ModelInfo {
+        let well: Vec<&ParamRow> = outcome
+            .parameters
+            .iter()
+            .filter(|p| p.rel_std_pct.is_some_and(|s| s < WELL_EXCITED_REL_STD_PCT))
+            .collect();
+        let idset = &outcome.idset;
+        ModelInfo {
+            name: outcome.model_name(),
+            cv: idset.selection.scores.clone(),
+            structure_sigma_w: outcome.model.structure_sigma,
+            structure_rel: outcome.model.structure_rel,
+            structure_fold_w: outcome.model.structure_fold,
+            structure_active_w: outcome.model.structure_active,
+            lowest_seen_w: outcome.model.lowest_seen,
+            bus_floor_w: outcome.model.bus_floor,
+            weighting: idset.weighting,
+            consistent: idset.selection.consistent.is_some(),
+            motor_power: idset.selection.motor_power,
+            design: DesignInfo {
+                criterion: idset.criterion,
+                rounds: idset.rounds,
+                stacked_cond: idset.set_cond,
+                wall_s: idset.design_s,
+            },
+            excitation_conds: idset.conds.clone(),
+            excitation_duration_s: excitation_durations_s(outcome),
+            loads_kg: identification_loads_kg(outcome),
+            standby: idset.standby.as_ref().map(|(pose, tau)| StandbyInfo {
+                pose_rad: pose.clone(),
+                gravity_torque_nm: tau.clone(),
+            }),
+            residual_rms_w: idset.selection.fit.estimate.residual_rms,
+            well_determined: well.len(),
+            well_determined_max_error_pct: well
+                .iter()
+                .filter_map(|p| p.error_pct)
+                .map(f64::abs)
+                .reduce(f64::max),
+            parameters: outcome.model.theta.len(),
+            table2: outcome.parameters.clone(),
+        }
+    }
+}
+
+/// Duration of each identification excitation of `outcome`, s.
+fn excitation_durations_s(outcome: &Outcome) -> Vec<f64> {
+    outcome
+        .idset
+        .trajectories
+        .iter()
+        .take(outcome.idset.conds.len())
+        .map(|t| t.duration())
+        .collect()
+}
+
+/// Known load carried in each identification run of `outcome`: the masses of its payload
+/// events summed, kg.
+fn identification_loads_kg(outcome: &Outcome) -> Vec<f64> {
+    outcome
+        .idset
+        .payloads
+        .iter()
+        .map(|e| {
+            e.iter()
+                .filter_map(|e| e.payload.as_ref())
+                .fold(0.0, |m, p| m + p.inertia.mass)
+        })
+        .collect()
 }

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::dataset::Dataset;
 use crate::error::{Error, Result};
-use crate::model::drive::BrakeWindow;
+use crate::model::drive::{BrakeWindow, Brakes};
 use crate::optimize::schedule::{Schedule, WaitPrices};
 use crate::optimize::segment::Task;
 use crate::optimize::{Optimized, PlannedSchedule, plan_schedule, predict_run};
@@ -108,6 +108,16 @@ pub struct Checked {
     pub brakes: Vec<Vec<BrakeWindow>>,
 }
 
+/// One plan to run on the twin: its display name, its task and its planned schedule.
+struct Job<'a> {
+    /// Display name.
+    name: String,
+    /// The task (possibly moved to another placement).
+    task: Task<'a>,
+    /// The planned and priced run.
+    plan: PlannedSchedule,
+}
+
 /// Run the uniform plan of `optimized` (on `task`) and every candidate plan on `rig` in
 /// parallel. Errors: planning or twin errors; a flagged run is reported, not an error.
 pub fn check(
@@ -119,74 +129,120 @@ pub fn check(
 ) -> Result<Checked> {
     let brakes = rig.drive.brakes();
     progress.stage("optimised plans on the twin", candidates.len() + 1);
+    let jobs = plan_jobs(task, optimized, candidates, brakes)?;
+    let clipped = task.model.signal.clipped();
+    let out: Vec<(PlanCheck, Dataset)> = jobs
+        .par_iter()
+        .enumerate()
+        .map(|(k, job)| run_job(rig, k, job, clipped, progress))
+        .collect::<Result<_>>()?;
+    let (uniform, plans, datasets) = with_savings(out)?;
+    let (runs, brakes): (Vec<TaskRun>, Vec<Vec<BrakeWindow>>) = jobs
+        .into_iter()
+        .map(|j| (j.plan.run, j.plan.brakes))
+        .unzip();
+    Ok(Checked {
+        uniform,
+        plans,
+        datasets,
+        runs,
+        brakes,
+    })
+}
+
+/// Plan and price the jobs: the user's uniform plan on `task` (servos on throughout) first,
+/// then each candidate's schedule with the holding prices of `brakes`.
+fn plan_jobs<'a>(
+    task: &Task<'a>,
+    optimized: &Optimized,
+    candidates: &[Candidate<'a>],
+    brakes: Option<&Brakes>,
+) -> Result<Vec<Job<'a>>> {
     let uniform_run = task
         .scenario
         .plan(task.robot, optimized.uniform.speed_m_s, task.load_kg)?;
     let uniform_p = predict_run(task, &uniform_run)?;
-    let mut jobs: Vec<(String, Task, PlannedSchedule)> = vec![(
-        "uniform".to_string(),
-        *task,
-        PlannedSchedule {
+    let mut jobs = vec![Job {
+        name: "uniform".to_string(),
+        task: *task,
+        plan: PlannedSchedule {
             run: uniform_run,
             brakes: Vec::new(),
             predicted_j: uniform_p.energy_j,
             interval_j: uniform_p.interval_j,
         },
-    )];
+    }];
     for c in candidates {
         let prices = WaitPrices::new(&c.task, brakes)?;
-        jobs.push((
-            c.name.to_string(),
-            c.task,
-            plan_schedule(&c.task, c.schedule, &prices)?,
-        ));
+        jobs.push(Job {
+            name: c.name.to_string(),
+            task: c.task,
+            plan: plan_schedule(&c.task, c.schedule, &prices)?,
+        });
     }
-    let clipped = task.model.signal.clipped();
-    let out: Vec<(PlanCheck, Dataset)> = jobs
-        .par_iter()
-        .enumerate()
-        .map(|(k, (name, t, plan))| {
-            let description = serde_json::json!({
-                "kind": "optimised task check",
-                "plan": name,
-                "scenario": t.scenario.name,
-                "load_kg": t.load_kg,
-            });
-            let run = &plan.run;
-            let windows = &plan.brakes;
-            let (ds, report) = rig.run_reported(
-                &run.motion.trajectory,
-                &run.events,
-                windows,
-                300 + k as u64,
-                description,
-            )?;
-            let braked_s: f64 = windows.iter().map(|w| w.end_s - w.start_s).sum();
-            let predicted_j = plan.predicted_j;
-            let sim = &ds.meta.summary;
-            let simulated_j = if clipped {
-                sim.energy_grid_j
-            } else {
-                sim.energy_total_j
-            };
-            progress.advance();
-            Ok((
-                PlanCheck {
-                    name: name.clone(),
-                    cycle_time_s: run.motion.duration_s,
-                    predicted_j,
-                    interval_j: plan.interval_j,
-                    simulated_j,
-                    error_pct: energy_error_pct(predicted_j, simulated_j),
-                    braked_s,
-                    flagged: run_flagged(&report),
-                    max_tracking_error_rad: report.max_tracking_error_rad,
-                    torque_limit_hits: report.torque_limit_hits,
-                },
-                ds,
-            ))
-        })
-        .collect::<Result<_>>()?;
+    Ok(jobs)
+}
+
+/// Run job `k` on the twin (its own noise seed) and compare its predicted energy with the
+/// twin's: the grid-side energy when the model's signal is `clipped`, else the motor sum, J.
+fn run_job(
+    rig: &Rig,
+    k: usize,
+    job: &Job,
+    clipped: bool,
+    progress: &dyn Progress,
+) -> Result<(PlanCheck, Dataset)> {
+    let Job {
+        name,
+        task: t,
+        plan,
+    } = job;
+    let description = serde_json::json!({
+        "kind": "optimised task check",
+        "plan": name,
+        "scenario": t.scenario.name,
+        "load_kg": t.load_kg,
+    });
+    let run = &plan.run;
+    let windows = &plan.brakes;
+    let (ds, report) = rig.run_reported(
+        &run.motion.trajectory,
+        &run.events,
+        windows,
+        300 + k as u64,
+        description,
+    )?;
+    let braked_s: f64 = windows.iter().map(|w| w.end_s - w.start_s).sum();
+    let predicted_j = plan.predicted_j;
+    let sim = &ds.meta.summary;
+    let simulated_j = if clipped {
+        sim.energy_grid_j
+    } else {
+        sim.energy_total_j
+    };
+    progress.advance();
+    Ok((
+        PlanCheck {
+            name: name.clone(),
+            cycle_time_s: run.motion.duration_s,
+            predicted_j,
+            interval_j: plan.interval_j,
+            simulated_j,
+            error_pct: energy_error_pct(predicted_j, simulated_j),
+            braked_s,
+            flagged: run_flagged(&report),
+            max_tracking_error_rad: report.max_tracking_error_rad,
+            torque_limit_hits: report.torque_limit_hits,
+        },
+        ds,
+    ))
+}
+
+/// Split the twin's checks, uniform plan first, into the uniform plan, the other plans with
+/// their savings against it, and the datasets in the same order.
+fn with_savings(
+    out: Vec<(PlanCheck, Dataset)>,
+) -> Result<(PlanCheck, Vec<CheckedPlan>, Vec<Dataset>)> {
     let mut checks = Vec::with_capacity(out.len());
     let mut datasets = Vec::with_capacity(out.len());
     for (c, d) in out {
@@ -203,13 +259,5 @@ pub fn check(
             CheckedPlan { check: c, saving }
         })
         .collect();
-    let (runs, brakes): (Vec<TaskRun>, Vec<Vec<BrakeWindow>>) =
-        jobs.into_iter().map(|(_, _, p)| (p.run, p.brakes)).unzip();
-    Ok(Checked {
-        uniform,
-        plans,
-        datasets,
-        runs,
-        brakes,
-    })
+    Ok((uniform, plans, datasets))
 }

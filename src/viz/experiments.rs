@@ -114,88 +114,16 @@ impl Viz {
         efficiency: f64,
         display_hz: f64,
     ) -> Result<()> {
-        let mismatch =
-            |what: &str| Error::InvalidInput(format!("the outcome's {what} do not match"));
-        let steps = &outcome.steps;
-        if steps.datasets.len() != steps.trajectories.len() {
-            return Err(mismatch("step datasets and trajectories"));
-        }
-        if outcome.cases.datasets.len() != plan.cases.len() {
-            return Err(mismatch("tool and load cases"));
-        }
-        let last = steps
-            .trajectories
-            .last()
-            .ok_or_else(|| mismatch("identification steps"))?;
+        let last = last_step_trajectory(plan, outcome)?;
         let roots: Vec<String> = outcome
             .estimators
             .iter()
             .map(|e| format!("identification/{}", path_part(&e.method)))
             .collect();
-        let (run, energies) = sweep_tabs(robot, &outcome.sweep, "sweep");
-        let mut tabs: Vec<Tab> = run.into_iter().collect();
-        tabs.extend([
-            Tab::Run {
-                title: format!("identification step {}", steps.datasets.len()),
-                prefix: format!("table3/step{}", steps.datasets.len()),
-                joints: robot.dof(),
-            },
-            Tab::Parameters {
-                title: "parameter errors (Table 2)".into(),
-                roots: roots.clone(),
-            },
-            energies,
-        ]);
-        self.send_blueprint(&tabs)?;
+        self.send_blueprint(&reproduce_tabs(robot, outcome, &roots))?;
 
-        let case_events: Vec<Vec<PayloadEvent>> = plan
-            .cases
-            .iter()
-            .map(|(_, payload)| {
-                payload
-                    .iter()
-                    .map(|p| PayloadEvent {
-                        t_s: 0.0,
-                        payload: Some(p.clone()),
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut jobs: Vec<Job> = steps
-            .datasets
-            .iter()
-            .zip(&steps.trajectories)
-            .enumerate()
-            .map(|(k, (dataset, traj))| Job {
-                prefix: format!("table3/step{}", k + 1),
-                dataset,
-                prediction: Some(Prediction {
-                    model: &outcome.model,
-                    efficiency,
-                    trajectory: traj,
-                    events: &[],
-                }),
-                task: None,
-            })
-            .collect();
-        for (((name, _), events), dataset) in plan
-            .cases
-            .iter()
-            .zip(&case_events)
-            .zip(&outcome.cases.datasets)
-        {
-            jobs.push(Job {
-                prefix: format!("table4/{}", path_part(name)),
-                dataset,
-                prediction: Some(Prediction {
-                    model: &outcome.model,
-                    efficiency,
-                    trajectory: last,
-                    events,
-                }),
-                task: None,
-            });
-        }
+        let case_events = case_events(plan);
+        let jobs = reproduce_jobs(plan, outcome, efficiency, last, &case_events);
         self.log_jobs(robot, &jobs, &plan.scenario.tcp(), display_hz)?;
         for (root, e) in roots.iter().zip(&outcome.estimators) {
             self.log_parameters(root, &e.parameters)?;
@@ -241,6 +169,111 @@ impl Viz {
             Ok(())
         })
     }
+}
+
+/// Check that `outcome` matches `plan` (one dataset per step trajectory, one per tool and
+/// load case) and return the last identification step's trajectory, which the cases run.
+fn last_step_trajectory<'a>(plan: &Plan, outcome: &'a Outcome) -> Result<&'a dyn Trajectory> {
+    let mismatch = |what: &str| Error::InvalidInput(format!("the outcome's {what} do not match"));
+    let steps = &outcome.steps;
+    if steps.datasets.len() != steps.trajectories.len() {
+        return Err(mismatch("step datasets and trajectories"));
+    }
+    if outcome.cases.datasets.len() != plan.cases.len() {
+        return Err(mismatch("tool and load cases"));
+    }
+    let last = steps
+        .trajectories
+        .last()
+        .ok_or_else(|| mismatch("identification steps"))?;
+    Ok(last)
+}
+
+/// The layout of `reproduce`'s recording: the representative sweep cell, the last
+/// identification step, the parameter errors under `roots` and energy against speed.
+fn reproduce_tabs(robot: &Robot, outcome: &Outcome, roots: &[String]) -> Vec<Tab> {
+    let n_steps = outcome.steps.datasets.len();
+    let (run, energies) = sweep_tabs(robot, &outcome.sweep, "sweep");
+    let mut tabs: Vec<Tab> = run.into_iter().collect();
+    tabs.extend([
+        Tab::Run {
+            title: format!("identification step {n_steps}"),
+            prefix: format!("table3/step{n_steps}"),
+            joints: robot.dof(),
+        },
+        Tab::Parameters {
+            title: "parameter errors (Table 2)".into(),
+            roots: roots.to_vec(),
+        },
+        energies,
+    ]);
+    tabs
+}
+
+/// The payload timeline of each tool and load case of `plan`: its payload from `t = 0` s
+/// (none for an empty flange).
+fn case_events(plan: &Plan) -> Vec<Vec<PayloadEvent>> {
+    plan.cases
+        .iter()
+        .map(|(_, payload)| {
+            payload
+                .iter()
+                .map(|p| PayloadEvent {
+                    t_s: 0.0,
+                    payload: Some(p.clone()),
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// One job per identification step, under `table3/step{k}`, then one per tool and load case,
+/// under `table4/{case}` (the `last` step's trajectory with the case's `case_events`), all
+/// predicted by the outcome's model with the drives' nominal `efficiency`.
+fn reproduce_jobs<'a>(
+    plan: &Plan,
+    outcome: &'a Outcome,
+    efficiency: f64,
+    last: &'a dyn Trajectory,
+    case_events: &'a [Vec<PayloadEvent>],
+) -> Vec<Job<'a>> {
+    let steps = &outcome.steps;
+    let mut jobs: Vec<Job> = steps
+        .datasets
+        .iter()
+        .zip(&steps.trajectories)
+        .enumerate()
+        .map(|(k, (dataset, traj))| Job {
+            prefix: format!("table3/step{}", k + 1),
+            dataset,
+            prediction: Some(Prediction {
+                model: &outcome.model,
+                efficiency,
+                trajectory: traj,
+                events: &[],
+            }),
+            task: None,
+        })
+        .collect();
+    for (((name, _), events), dataset) in plan
+        .cases
+        .iter()
+        .zip(case_events)
+        .zip(&outcome.cases.datasets)
+    {
+        jobs.push(Job {
+            prefix: format!("table4/{}", path_part(name)),
+            dataset,
+            prediction: Some(Prediction {
+                model: &outcome.model,
+                efficiency,
+                trajectory: last,
+                events,
+            }),
+            task: None,
+        });
+    }
+    jobs
 }
 
 /// One job per sweep cell, under `{root}/{v}mps_{L}kg` (e.g. `0p5mps_4kg`).

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use powertwin::Robot;
 use powertwin::dataset::Dataset;
 use powertwin::dynamics::ParamLayout;
-use powertwin::identification::consistency::consistency;
+use powertwin::identification::consistency::{Consistency, consistency};
 use powertwin::identification::data::{Prepared, Route, ensure_motion, prepare};
 use powertwin::identification::energy::{self, Windows, window_energies};
 use powertwin::identification::fit::{CvScore, Estimator, FitOptions, Weighting, identify_logs};
@@ -548,74 +548,13 @@ fn identify_paper(
     min_speed: f64,
 ) -> Result<Identified> {
     let layout = ParamLayout::new(robot, true, true);
-    let prepared: Vec<Prepared> = logs
-        .iter()
-        .map(|l| {
-            let mut p = prepare(l, route).with_context(|| format!("preparing {}", l.source))?;
-            if min_speed > 0.0 {
-                let dropped = p.drop_slow_samples(min_speed)?;
-                eprintln!(
-                    "{}: {dropped} samples with an excited joint below {min_speed} rad/s dropped",
-                    l.source
-                );
-            }
-            Ok(p)
-        })
-        .collect::<Result<_>>()?;
+    let prepared = prepare_logs(logs, route, min_speed)?;
     ensure_motion(&prepared)?;
     let mut model = PowerModel::new(robot, layout, true)?;
     let estimates = match method {
-        Method::PerJoint => {
-            let mut states = prepared[0].states.clone();
-            for p in &prepared[1..] {
-                states.append(&p.states)?;
-            }
-            let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_joint.clone()).collect();
-            if y.len() != states.len() * robot.dof() {
-                bail!("per-joint identification needs the power of every motor in every log");
-            }
-            vec![linear::identify(
-                robot,
-                &mut model,
-                &states,
-                Observation::JointPower,
-                &y,
-            )?]
-        }
-        Method::Energy => {
-            let energies: Vec<Vec<f64>> = prepared
-                .iter()
-                .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
-                .collect();
-            let windows: Vec<Windows> = prepared
-                .iter()
-                .zip(&energies)
-                .map(|(p, e)| Windows {
-                    motion: p.motion.as_ref(),
-                    t: &p.states.t,
-                    energy: e,
-                })
-                .collect();
-            vec![energy::identify(robot, &mut model, &windows)?]
-        }
-        _ => {
-            let data: Vec<StepData> = prepared
-                .into_iter()
-                .map(|p| {
-                    let mut states = p.states;
-                    hold_still(&mut states, &p.excited);
-                    StepData {
-                        joints: p.excited,
-                        states,
-                        p_total: p.p_total,
-                    }
-                })
-                .collect();
-            steps::identify(robot, &mut model, &data)?
-                .into_iter()
-                .map(|r| r.estimate)
-                .collect()
-        }
+        Method::PerJoint => vec![identify_per_joint(robot, &mut model, &prepared)?],
+        Method::Energy => vec![identify_energy(robot, &mut model, &prepared)?],
+        _ => identify_steps(robot, &mut model, prepared)?,
     };
     model.signal = logs[0].signal;
     Ok(Identified {
@@ -627,6 +566,96 @@ fn identify_paper(
     })
 }
 
+/// Prepare each log along `route`; with `min_speed` (rad/s) above 0, drop the samples at
+/// which an excited joint moves slower, and say how many.
+fn prepare_logs(logs: &[Log], route: Route, min_speed: f64) -> Result<Vec<Prepared>> {
+    logs.iter()
+        .map(|l| {
+            let mut p = prepare(l, route).with_context(|| format!("preparing {}", l.source))?;
+            if min_speed > 0.0 {
+                let dropped = p.drop_slow_samples(min_speed)?;
+                eprintln!(
+                    "{}: {dropped} samples with an excited joint below {min_speed} rad/s dropped",
+                    l.source
+                );
+            }
+            Ok(p)
+        })
+        .collect()
+}
+
+/// `--method per-joint`: all base parameters at once from the power of each motor (eq. 13),
+/// the logs' states stacked in order.
+fn identify_per_joint(
+    robot: &Robot,
+    model: &mut PowerModel,
+    prepared: &[Prepared],
+) -> Result<Estimate> {
+    let mut states = prepared[0].states.clone();
+    for p in &prepared[1..] {
+        states.append(&p.states)?;
+    }
+    let y: Vec<f64> = prepared.iter().flat_map(|p| p.p_joint.clone()).collect();
+    if y.len() != states.len() * robot.dof() {
+        bail!("per-joint identification needs the power of every motor in every log");
+    }
+    Ok(linear::identify(
+        robot,
+        model,
+        &states,
+        Observation::JointPower,
+        &y,
+    )?)
+}
+
+/// `--method energy`: the base parameters from the energy of the windows between samples of
+/// each log's total power, J.
+fn identify_energy(
+    robot: &Robot,
+    model: &mut PowerModel,
+    prepared: &[Prepared],
+) -> Result<Estimate> {
+    let energies: Vec<Vec<f64>> = prepared
+        .iter()
+        .map(|p| window_energies(&p.states.t, &p.p_total, p.power_averaged))
+        .collect();
+    let windows: Vec<Windows> = prepared
+        .iter()
+        .zip(&energies)
+        .map(|(p, e)| Windows {
+            motion: p.motion.as_ref(),
+            t: &p.states.t,
+            energy: e,
+        })
+        .collect();
+    Ok(energy::identify(robot, model, &windows)?)
+}
+
+/// `--method paper-steps`: step by step from total power, one log per step in step order,
+/// the joints each step does not excite held still; one estimate per step.
+fn identify_steps(
+    robot: &Robot,
+    model: &mut PowerModel,
+    prepared: Vec<Prepared>,
+) -> Result<Vec<Estimate>> {
+    let data: Vec<StepData> = prepared
+        .into_iter()
+        .map(|p| {
+            let mut states = p.states;
+            hold_still(&mut states, &p.excited);
+            StepData {
+                joints: p.excited,
+                states,
+                p_total: p.p_total,
+            }
+        })
+        .collect();
+    Ok(steps::identify(robot, model, &data)?
+        .into_iter()
+        .map(|r| r.estimate)
+        .collect())
+}
+
 /// Check the model's physical consistency, export it if asked, write `--out` and print the
 /// summary.
 fn write_and_report(
@@ -635,12 +664,24 @@ fn write_and_report(
     identified: &Identified,
     held_out: Option<&Holdout>,
 ) -> Result<()> {
+    let consistency = write_model(args, robot, identified)?;
+    report_summary(args, identified, &consistency);
+    if args.json {
+        print_json_report(args, identified, &consistency, held_out)?;
+    }
+    Ok(())
+}
+
+/// Check the model's physical consistency (mass matrix at random poses), export the
+/// identified URDF and drive file if asked, and write `--out` with the estimates,
+/// cross-validation, consistency and determination.
+fn write_model(args: &IdentifyArgs, robot: &Robot, identified: &Identified) -> Result<Consistency> {
     let Identified {
         model,
         estimates,
         cross_validation: cv,
-        estimator,
         determination,
+        ..
     } = identified;
     // Positive definiteness does not depend on the 1/eta scale: check in model units.
     let consistency = consistency(robot, model, 1.0, 200, 1)?;
@@ -661,6 +702,20 @@ fn write_and_report(
     });
     write_atomic(&args.out, serde_json::to_string_pretty(&out)?.as_bytes())
         .with_context(|| format!("writing {}", args.out.display()))?;
+    Ok(consistency)
+}
+
+/// Print the summary on stderr: the fit, physical consistency (the mass matrix's smallest
+/// eigenvalue, kg m^2, over eta for an efficiency-scaled model), determined directions, the
+/// lowest power and heaviest payload the logs show, and the friction.
+fn report_summary(args: &IdentifyArgs, identified: &Identified, consistency: &Consistency) {
+    let Identified {
+        model,
+        estimates,
+        estimator,
+        determination,
+        ..
+    } = identified;
     if let Some(e) = estimates.last() {
         eprintln!(
             "{} base parameters identified ({:?}), condition number {:.1}, residual RMS {:.4}, {} observations -> {}",
@@ -706,22 +761,37 @@ fn write_and_report(
         );
     }
     report_friction(model, estimator.is_some());
-    if args.json {
-        let report = json!({
-            "model_path": args.out,
-            "method": format!("{:?}", args.method).to_lowercase(),
-            "estimator": estimator,
-            "cross_validation": cv,
-            "condition_number": estimates.last().map(|e| e.cond),
-            "physically_consistent": consistency.consistent,
-            "determination": determination,
-            "lowest_seen_W": model.lowest_seen,
-            "bus_floor_W": model.bus_floor,
-            "payload_seen_kg": model.payload_seen,
-            "min_speed_rad_s": model.min_speed,
-            "holdout": held_out,
-        });
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    }
+}
+
+/// `--json`: print the report (model path, estimator, cross-validation, determined
+/// directions, what the logs show, the held-out check) on stdout.
+fn print_json_report(
+    args: &IdentifyArgs,
+    identified: &Identified,
+    consistency: &Consistency,
+    held_out: Option<&Holdout>,
+) -> Result<()> {
+    let Identified {
+        model,
+        estimates,
+        cross_validation: cv,
+        estimator,
+        determination,
+    } = identified;
+    let report = json!({
+        "model_path": args.out,
+        "method": format!("{:?}", args.method).to_lowercase(),
+        "estimator": estimator,
+        "cross_validation": cv,
+        "condition_number": estimates.last().map(|e| e.cond),
+        "physically_consistent": consistency.consistent,
+        "determination": determination,
+        "lowest_seen_W": model.lowest_seen,
+        "bus_floor_W": model.bus_floor,
+        "payload_seen_kg": model.payload_seen,
+        "min_speed_rad_s": model.min_speed,
+        "holdout": held_out,
+    });
+    println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }
