@@ -94,18 +94,40 @@ pub fn dir_files(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
     v
 }
 
-/// Cargo's `CARGO_TARGET_TMPDIR` (inside the target directory, so `cargo clean` removes it),
-/// emptied when the binary first asks for it. Each run of a test binary replaces its
-/// predecessor's files instead of leaving them behind (the reproduce tests write hundreds of
-/// MB); tests of one binary share it, so names must differ between them.
+/// A path `name` in this test process's scratch directory, `powertwin-<binary>-<pid>` under
+/// Cargo's `CARGO_TARGET_TMPDIR` (inside the target directory, so `cargo clean` removes it).
+/// Tests of one binary share it, so names must differ between them. When a process first asks
+/// for it, the scratch directories of earlier runs of the binary are removed (the reproduce
+/// tests write hundreds of MB), but not those of runs still going: two test runs at once no
+/// longer empty each other's files. Which runs are going is read from `/proc` (Linux);
+/// without it every earlier directory is removed.
 pub fn tmp(name: &str) -> std::path::PathBuf {
     static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-            .join(format!("powertwin-{}", env!("CARGO_CRATE_NAME")));
-        if dir.exists() {
-            std::fs::remove_dir_all(&dir).expect("the previous run's scratch directory");
+        let root = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+        let prefix = format!("powertwin-{}", env!("CARGO_CRATE_NAME"));
+        let own = format!("{prefix}-{}", std::process::id());
+        let running = |pid: &str| std::path::Path::new("/proc").join(pid).exists();
+        for entry in std::fs::read_dir(root).into_iter().flatten().flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let stale = name == own
+                || match name.strip_prefix(&prefix) {
+                    // The one directory all runs shared before.
+                    Some("") => true,
+                    Some(rest) => rest.strip_prefix('-').is_some_and(|pid| {
+                        !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()) && !running(pid)
+                    }),
+                    None => false,
+                };
+            // Another run starting at the same time may be removing it too.
+            if stale
+                && let Err(e) = std::fs::remove_dir_all(entry.path())
+                && e.kind() != std::io::ErrorKind::NotFound
+            {
+                panic!("removing {}: {e}", entry.path().display());
+            }
         }
+        let dir = root.join(own);
         std::fs::create_dir_all(&dir).expect("scratch directory");
         dir
     })
