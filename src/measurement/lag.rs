@@ -90,9 +90,10 @@ pub fn estimate_lag(
     let ddq: Vec<Vec<f64>> = dq.iter().map(|v| derivative(t_s, v)).collect();
     let x = joint_terms(q_rad, &dq, &ddq, &rows.inner);
     let q = orthonormal_terms(&x);
-    let r2 = |shift: i64| explained(&q, &rows.inner, power_w, shift);
     let s = rows.steps as i64;
-    let grid: Vec<(i64, f64)> = (-s..=s).map(|j| (j, r2(j))).collect();
+    let grid: Vec<(i64, f64)> = (-s..=s)
+        .map(|j| (j, explained(&q, &rows.inner, power_w, j)))
+        .collect();
     let best = (0..grid.len())
         .max_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))
         .unwrap_or(0);
@@ -107,7 +108,8 @@ pub fn estimate_lag(
     Ok(LagEstimate {
         lag_s: lag * rows.period,
         r2: grid[best].1,
-        r2_at_zero: r2(0),
+        // The grid runs from -steps, so the zero shift is its middle entry.
+        r2_at_zero: grid[rows.steps].1,
     })
 }
 
