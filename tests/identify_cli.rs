@@ -227,3 +227,55 @@ fn identify_gives_the_same_bits_on_one_thread_and_on_four() {
     };
     assert!(model("1") == model("4"), "the models differ");
 }
+
+#[test]
+fn a_bus_log_in_kw_is_an_error_to_identify_not_a_panic() {
+    let (traj, data) = (tmp("kw-ex.csv"), tmp("kw-run"));
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    common::run_ok(&[
+        "excite",
+        "--seed",
+        "1",
+        "--periods",
+        "2",
+        "--out",
+        &s(&traj),
+    ]);
+    common::run_ok(&[
+        "simulate",
+        "--trajectory",
+        &s(&traj),
+        "--format",
+        "csv",
+        "--out",
+        &s(&data),
+    ]);
+    // The same log (time, positions and the bus power) with its power written in kW under
+    // the W column's name.
+    let text = std::fs::read_to_string(data.join("measured.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&c| header[c] == "t_s" || header[c].ends_with("_rad") || header[c] == "p_total_W")
+        .collect();
+    let p = header.iter().position(|c| *c == "p_total_W").unwrap();
+    let pick = |f: &[&str]| keep.iter().map(|&c| f[c].to_string()).collect::<Vec<_>>();
+    let mut kw = pick(&header).join(",") + "\n";
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        f[p] = (f[p].parse::<f64>().unwrap() / 1000.0).to_string();
+        let f: Vec<&str> = f.iter().map(String::as_str).collect();
+        kw += &(pick(&f).join(",") + "\n");
+    }
+    let log = tmp("kw.csv");
+    std::fs::write(&log, kw).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_powertwin"))
+        .args(["identify", "--log", &s(&log), "--power", "bus"])
+        .args(["--out", &s(&tmp("kw.json"))])
+        .output()
+        .expect("the powertwin binary runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("is it logged in kW?"), "{err}");
+    assert!(err.contains("no samples left to fit"), "{err}");
+}

@@ -153,6 +153,97 @@ fn time_going_backwards_is_an_error_naming_the_row() {
     let e = read_err(&write("back.csv", &own_csv(&t)), None);
     assert!(e.contains("row 6") && e.contains("backwards"), "{e}");
     assert!(e.contains("back.csv"), "{e}");
+    // Unix time: the error quotes the stamps as the file holds them and says what to do.
+    let unix: Vec<f64> = t.iter().map(|t| 1.7e9 + t).collect();
+    let e = read_err(&write("back_unix.csv", &own_csv(&unix)), None);
+    assert!(
+        e.contains("1700000000.25 s after 1700000000.3 s") && e.contains("sort"),
+        "{e}"
+    );
+}
+
+#[test]
+fn odd_logs_are_read_with_a_warning_or_refused_when_no_robot_log_is_like_them() {
+    let t = |rate: f64, n: usize| -> Vec<f64> { (0..n).map(|k| k as f64 / rate).collect() };
+    let warned = |rep: &ReadReport, what: &str| rep.warnings.iter().any(|w| w.contains(what));
+    // A log powertwin's own twin writes: no warning.
+    let (_, rep) = read(&write("plain.csv", &own_csv(&t(10.0, 200))), None);
+    assert!(rep.warnings.is_empty(), "{rep}");
+    // 5 Hz: read, with a word on the rate.
+    let (_, rep) = read(&write("slow.csv", &own_csv(&t(5.0, 100))), None);
+    assert!(warned(&rep, "5.00 Hz"), "{rep}");
+    // Milliseconds in a seconds column: no robot log is sampled once per 100 s.
+    let e = read_err(&write("ms.csv", &own_csv(&t(0.01, 100))), None);
+    assert!(
+        e.contains("median sample period 100 s") && e.contains("ms"),
+        "{e}"
+    );
+    // Power in kW: read, with a word on the unit.
+    let kw = own_csv(&t(10.0, 200));
+    let mut kw_lines = String::from("t_s,q1_rad,q2_rad,P_total_W\n");
+    for line in kw.lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        kw_lines += &format!("{},{},{},{}\n", f[0], f[1], f[2], f[3] / 1000.0);
+    }
+    let (_, rep) = read(&write("kw.csv", &kw_lines), None);
+    assert!(warned(&rep, "kW"), "{rep}");
+    // A signed motor sum read as DC-bus power.
+    let mut signed = String::from("t_s,q1_rad,q2_rad,P_total_W\n");
+    for t in t(10.0, 200) {
+        signed += &format!("{t},{},{},{}\n", t.sin(), 0.5 * t.cos(), 100.0 * t.sin());
+    }
+    let p = write("signed.csv", &signed);
+    let bus = ReadOptions {
+        power: Some(PowerKind::Bus),
+        lag: LagOption::Report,
+    };
+    let (_, rep) = read_log(&p, None, &bus).unwrap();
+    assert!(warned(&rep, "--power total"), "{rep}");
+    let (_, rep) = read(&p, None);
+    assert!(!warned(&rep, "--power total"), "{rep}");
+}
+
+#[test]
+fn positions_and_power_no_robot_can_have_are_refused_naming_the_sample() {
+    let robot = common::irb1200();
+    let t: Vec<f64> = (0..50).map(|k| 0.1 * k as f64).collect();
+    let log = Log {
+        source: "mine.csv".into(),
+        robot: None,
+        t_s: t.clone(),
+        q_rad: (0..6)
+            .map(|i| t.iter().map(|t| 0.1 * (t + i as f64).sin()).collect())
+            .collect(),
+        dq_rad_s: None,
+        power_w: vec![300.0; t.len()],
+        signal: PowerSignal::Bus,
+        motor_power_w: None,
+        power_averaged: false,
+        payloads: Vec::new(),
+    };
+    log.check_robot(&robot).unwrap();
+    // Positions in degrees: joint 2 at 40 "rad".
+    let mut deg = log.clone();
+    deg.q_rad[1][7] = 40.0;
+    let e = deg.check_robot(&robot).unwrap_err().to_string();
+    assert!(
+        e.contains("joint 2") && e.contains("t = 0.700 s") && e.contains("degrees"),
+        "{e}"
+    );
+    // A joint logged with a turn added stays readable.
+    let mut turned = log.clone();
+    turned.q_rad[3].iter_mut().for_each(|q| *q += TAU);
+    turned.check_robot(&robot).unwrap();
+    // A glitch of a megawatt, and one that would overflow any sum of squares.
+    for glitch in [1e6, 1e308] {
+        let mut g = log.clone();
+        g.power_w[12] = glitch;
+        let e = g.check_robot(&robot).unwrap_err().to_string();
+        assert!(e.contains("t = 1.200 s") && e.contains("glitch"), "{e}");
+    }
+    // The bound is the arm's, read from its URDF: well above what it draws.
+    let bound = Log::max_power_w(&robot);
+    assert!((1e4..1e5).contains(&bound), "{bound} W");
 }
 
 #[test]
@@ -388,6 +479,12 @@ fn multi_turn_joints_stay_continuous_and_wrapped_columns_are_unwrapped() {
     assert_eq!(logs[0].q_rad[0], q);
     assert_eq!(rep.unwrapped_jumps, 0);
     assert_eq!(rep.suspect_jumps, 1); // the wrap in q2, reported, not changed
+    assert!(
+        rep.warnings
+            .iter()
+            .any(|w| w.contains("joint 2") && w.contains("wrapped = [2]")),
+        "{rep}"
+    );
     let m = map(r#"
 [time]
 column = "t_s"

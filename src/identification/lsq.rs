@@ -352,6 +352,14 @@ fn data_noise(
     qty: &DVector<f64>,
 ) -> Result<(f64, usize, f64)> {
     let (m, p) = a.shape();
+    if m == 0 || r.nrows() == 0 {
+        return Err(Error::InvalidInput(
+            "no samples left to fit: a fit leaves out the samples at rest, and one of a DC-bus \
+             or grid signal those within 2 W of the meter's floor (where the reading may be the \
+             clip's); check the power's unit and signal (--power)"
+                .into(),
+        ));
+    }
     let norms: Vec<f64> = a
         .column_iter()
         .map(|c| {

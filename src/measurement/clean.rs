@@ -119,20 +119,23 @@ pub fn median_period(t: &[f64]) -> f64 {
     d[d.len() / 2]
 }
 
-/// Refuse time going backwards (error naming the file row, via `row_name`) and average
+/// Refuse time going backwards (error naming the file row, via `row_name`, and the time
+/// stamps as the file holds them: `t0_s` (s) added back to the frame's times) and average
 /// rows with equal time stamps. Returns how many rows were merged away.
 pub fn merge_duplicates(
     frame: &mut Frame,
+    t0_s: f64,
     label: &str,
     row_name: &dyn Fn(usize) -> String,
 ) -> Result<usize> {
     let t = &frame.t_s;
     if let Some(k) = (1..t.len()).find(|&k| t[k] < t[k - 1]) {
         return Err(Error::InvalidInput(format!(
-            "{label}: {}: time goes backwards ({} s after {} s at {})",
+            "{label}: {}: time goes backwards ({} s after {} s at {}); a log must be in time \
+             order: sort its rows by time, or split it where its clock was reset",
             row_name(frame.row[k]),
-            t[k],
-            t[k - 1],
+            as_logged(t0_s + t[k]),
+            as_logged(t0_s + t[k - 1]),
             row_name(frame.row[k - 1])
         )));
     }
@@ -149,6 +152,12 @@ pub fn merge_duplicates(
         frame.average_groups(&groups, true);
     }
     Ok(merged)
+}
+
+/// A time stamp (s) rounded to the microsecond, as a log writes it (adding the first stamp
+/// back leaves digits of rounding behind).
+fn as_logged(t_s: f64) -> f64 {
+    (t_s * 1e6).round() / 1e6
 }
 
 /// Unwrap the joints `wrapped` (0-based): a step of more than pi becomes the equivalent step
@@ -175,14 +184,29 @@ pub fn unwrap(frame: &mut Frame, wrapped: &[usize]) -> usize {
 
 /// Steps of more than pi between consecutive samples in the joints not in `wrapped`
 /// (0-based): likely a wrapped column that the map does not declare.
-pub fn suspect_jumps(frame: &Frame, wrapped: &[usize]) -> usize {
-    frame
-        .q_rad
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| !wrapped.contains(i))
-        .map(|(_, q)| q.windows(2).filter(|w| (w[1] - w[0]).abs() > PI).count())
-        .sum()
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Jumps {
+    /// How many, over all those joints.
+    pub count: usize,
+    /// The first joint (0-based) with one, and the frame index of the sample after its
+    /// first jump.
+    pub first: Option<(usize, usize)>,
+}
+
+/// The [`Jumps`] of `frame`'s joints not in `wrapped` (0-based).
+pub fn suspect_jumps(frame: &Frame, wrapped: &[usize]) -> Jumps {
+    let mut jumps = Jumps::default();
+    for (i, q) in frame.q_rad.iter().enumerate() {
+        if wrapped.contains(&i) {
+            continue;
+        }
+        let mut at = (1..q.len()).filter(|&k| (q[k] - q[k - 1]).abs() > PI);
+        if let Some(k) = at.next() {
+            jumps.first.get_or_insert((i, k));
+            jumps.count += 1 + at.count();
+        }
+    }
+    jumps
 }
 
 /// Gap handling (see the module docs).

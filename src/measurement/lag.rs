@@ -146,7 +146,7 @@ fn search_rows(t_s: &[f64], n: usize, max_lag_s: f64) -> Result<SearchRows> {
     let features = term_count(n);
     if inner.len() < 50.max(2 * features) {
         return Err(Error::InvalidInput(format!(
-            "{} samples inside the +-{max_lag_s} s lag search are too few to estimate the power lag (need {})",
+            "{} samples inside the +-{max_lag_s} s lag search are too few to estimate the power lag from this log alone (need {}: a longer or faster log)",
             inner.len(),
             50.max(2 * features)
         )));

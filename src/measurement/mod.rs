@@ -121,8 +121,9 @@ impl Log {
         }
     }
 
-    /// Errors unless the log is of `robot`: its joint count, and its robot name when it
-    /// states one.
+    /// Errors unless the log is of `robot`: its joint count, its robot name when it states
+    /// one, joint positions that `robot` can reach ([`Log::check_positions`]) and power it
+    /// can draw ([`Log::check_power`]).
     pub fn check_robot(&self, robot: &Robot) -> Result<()> {
         if self.dof() != robot.dof() {
             return Err(Error::InvalidInput(format!(
@@ -141,6 +142,78 @@ impl Log {
                 self.source,
                 robot.name()
             )));
+        }
+        self.check_positions(robot)?;
+        self.check_power(robot)
+    }
+
+    /// Errors where a joint is more than a full turn beyond its position limits: no joint
+    /// angle within the limits, logged with a turn added or taken away, lies there, so the
+    /// positions are in another unit (degrees) or of another joint. Joints without finite
+    /// limits are not checked.
+    pub fn check_positions(&self, robot: &Robot) -> Result<()> {
+        const TURN: f64 = std::f64::consts::TAU;
+        for (i, (j, q)) in robot.joints().iter().zip(&self.q_rad).enumerate() {
+            let (lo, hi) = (j.limits.lower, j.limits.upper);
+            if !(lo.is_finite() && hi.is_finite()) {
+                continue;
+            }
+            if let Some(k) = q.iter().position(|&v| v < lo - TURN || v > hi + TURN) {
+                return Err(Error::InvalidInput(format!(
+                    "{}: joint {} ('{}') at {:.4} rad at t = {:.3} s, more than a turn beyond \
+                     its limits [{lo:.4}, {hi:.4}] rad: are the positions in degrees (a column \
+                     map's unit = \"deg\") or the columns in another order?",
+                    self.source,
+                    i + 1,
+                    j.name,
+                    q[k],
+                    self.t_s[k]
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The largest power (W) `robot` can draw, by any meter: ten times its joints' peak
+    /// mechanical power (effort times velocity limits, the losses at peak torque and speed
+    /// being of the same order) plus 10 kW of cabinet and grid-side load. Without an effort
+    /// limit on every joint, 10 MW, far beyond any serial arm.
+    pub fn max_power_w(robot: &Robot) -> f64 {
+        let peak: Option<f64> = robot
+            .joints()
+            .iter()
+            .map(|j| j.limits.effort.map(|e| e * j.limits.velocity))
+            .sum();
+        match peak {
+            Some(p) if p.is_finite() && p > 0.0 => 10.0 * p + 1e4,
+            _ => 1e7,
+        }
+    }
+
+    /// Errors where the logged power (the arm's, or a motor's) is beyond what `robot` can
+    /// draw ([`Log::max_power_w`]): a logger glitch or a unit error, which would otherwise
+    /// dominate a fit or a measured energy.
+    pub fn check_power(&self, robot: &Robot) -> Result<()> {
+        let bound = Self::max_power_w(robot);
+        let series = std::iter::once(("power".to_string(), &self.power_w)).chain(
+            self.motor_power_w
+                .iter()
+                .flatten()
+                .enumerate()
+                .map(|(i, p)| (format!("motor {} power", i + 1), p)),
+        );
+        for (name, p) in series {
+            if let Some(k) = p.iter().position(|v| v.abs() > bound) {
+                return Err(Error::InvalidInput(format!(
+                    "{}: {name} {:.4e} W at t = {:.3} s is beyond anything robot '{}' can draw \
+                     ({bound:.0} W: ten times its joints' effort x velocity limits, plus 10 kW): \
+                     a logger glitch (drop the row) or a unit error (a column map's unit)",
+                    self.source,
+                    p[k],
+                    self.t_s[k],
+                    robot.name()
+                )));
+            }
         }
         Ok(())
     }

@@ -345,6 +345,7 @@ pub(super) fn gather(
                     robot.dof()
                 );
             }
+            log.check_robot(robot)?;
             if let Some(e) = &events {
                 log.payloads = e.clone();
             }

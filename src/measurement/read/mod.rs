@@ -130,6 +130,56 @@ pub struct ReadReport {
     pub lag_trimmed: usize,
     /// The pieces returned: time ranges, s from the first sample, and sample counts.
     pub pieces: Vec<(f64, f64, usize)>,
+    /// What in the log looks wrong but was read as it is ([`warnings`]).
+    pub warnings: Vec<String>,
+}
+
+/// The slowest rate powertwin is built for, Hz: below it a warning says the route between
+/// samples is uncertain.
+const MIN_RATE_HZ: f64 = 10.0;
+
+/// The warnings of a read: a rate below [`MIN_RATE_HZ`], a joint that steps by more than pi
+/// (`jump`), DC-bus or grid power that goes clearly negative (below -2 % of its highest
+/// value: such a meter never reads negative, beyond its noise), and power that never reaches
+/// 5 W (an arm that moves draws more: likely kW).
+fn warnings(
+    logs: &[Log],
+    kind: PowerKind,
+    median_period_s: f64,
+    jump: Option<String>,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    if 1.0 / median_period_s < MIN_RATE_HZ {
+        w.push(format!(
+            "sampled at {:.2} Hz, below the {MIN_RATE_HZ} Hz powertwin is built for: the motion \
+             between samples is guessed, so energies of fast motions are uncertain beyond \
+             their intervals",
+            1.0 / median_period_s
+        ));
+    }
+    w.extend(jump);
+    let power = || logs.iter().flat_map(|l| l.power_w.iter().copied());
+    let lowest = power().fold(f64::INFINITY, f64::min);
+    let highest = power().fold(f64::NEG_INFINITY, f64::max);
+    if matches!(kind, PowerKind::Bus | PowerKind::Grid) && lowest < -0.02 * highest.abs() {
+        w.push(format!(
+            "the {} power goes down to {lowest:.1} W, but such a meter never reads negative: \
+             if it is the motors' signed sum, read it as `--power total`",
+            if kind == PowerKind::Bus {
+                "DC-bus"
+            } else {
+                "grid"
+            }
+        ));
+    }
+    if highest.max(-lowest) < 5.0 {
+        w.push(format!(
+            "the power never reaches 5 W (largest {:.3} W): is it logged in kW? Say so in a \
+             column map (the power column's unit = \"kW\")",
+            highest.max(-lowest)
+        ));
+    }
+    w
 }
 
 impl fmt::Display for ReadReport {
@@ -181,6 +231,9 @@ impl fmt::Display for ReadReport {
             "  power lag applied: {:+.4} s ({} end samples trimmed)",
             self.lag_applied_s, self.lag_trimmed
         )?;
+        for w in &self.warnings {
+            writeln!(f, "  warning: {w}")?;
+        }
         let pieces: Vec<String> = self
             .pieces
             .iter()
@@ -228,11 +281,17 @@ pub fn read_log(
     let missing_rows_dropped = kept.dropped;
     let t0 = kept.cols[0][0];
     let mut frame = stages::to_si(kept, &wanted, map, &source, &label)?;
-    let time_base = stages::repair_time_base(&mut frame, map, &label, &row_name)?;
+    let time_base = stages::repair_time_base(&mut frame, map, (t0, &label), &row_name)?;
     let mut resampled = stages::split_and_resample(frame, map, &label, &row_name)?;
     let lag = stages::align_power(&mut resampled.pieces, opts.lag, map, &label)?;
     let logs = stages::into_logs(resampled.pieces, &label, kind);
     let rests = stages::long_rests(&logs, map)?;
+    let warnings = warnings(
+        &logs,
+        kind,
+        time_base.median_period_s,
+        time_base.jump_warning,
+    );
     let report = ReadReport {
         source: label,
         rows,
@@ -259,6 +318,7 @@ pub fn read_log(
             .iter()
             .map(|l| (l.t_s[0], l.t_s[l.len() - 1], l.len()))
             .collect(),
+        warnings,
     };
     Ok((logs, report))
 }

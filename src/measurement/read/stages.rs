@@ -193,6 +193,10 @@ pub(super) fn to_si(
     })
 }
 
+/// The slowest median sample period read as a log, s: 1 Hz, a decade below the slowest
+/// rate powertwin works at (10 Hz). A slower one is a log of another time unit.
+const MAX_PERIOD_S: f64 = 1.0;
+
 /// What repairing the time base and the joint angles did.
 pub(super) struct TimeBase {
     /// Rows merged into the row before for the same time stamp.
@@ -201,6 +205,8 @@ pub(super) struct TimeBase {
     pub(super) unwrapped_jumps: usize,
     /// Steps of more than pi in the other joints.
     pub(super) suspect_jumps: usize,
+    /// The first of them, as a warning naming the joint and the file row.
+    pub(super) jump_warning: Option<String>,
     /// Median sample period, s.
     pub(super) median_period_s: f64,
     /// RMS deviation of the sample periods (gaps left out) from the median, s.
@@ -212,17 +218,37 @@ pub(super) struct TimeBase {
 pub(super) fn repair_time_base(
     frame: &mut Frame,
     map: &ColumnMap,
-    label: &str,
+    (t0_s, label): (f64, &str),
     row_name: &dyn Fn(usize) -> String,
 ) -> Result<TimeBase> {
-    let duplicates_merged = clean::merge_duplicates(frame, label, row_name)?;
+    let duplicates_merged = clean::merge_duplicates(frame, t0_s, label, row_name)?;
     let wrapped: Vec<usize> = map.joints.wrapped.iter().map(|j| j - 1).collect();
     let unwrapped_jumps = clean::unwrap(frame, &wrapped);
-    let suspect_jumps = clean::suspect_jumps(frame, &wrapped);
+    let jumps = clean::suspect_jumps(frame, &wrapped);
+    let jump_warning = jumps.first.map(|(i, k)| {
+        let more = match jumps.count - 1 {
+            0 => String::new(),
+            m => format!(" (and {m} more such step(s) in the log)"),
+        };
+        format!(
+            "joint {} steps by more than pi rad at {}{more}: if its column is logged modulo a \
+             turn, declare it in a column map (`wrapped = [{}]`)",
+            i + 1,
+            row_name(frame.row[k]),
+            i + 1
+        )
+    });
     let median = median_period(&frame.t_s);
     if median <= 0.0 {
         return Err(Error::InvalidInput(format!(
             "{label}: fewer than two distinct time stamps"
+        )));
+    }
+    if median > MAX_PERIOD_S {
+        return Err(Error::InvalidInput(format!(
+            "{label}: median sample period {median} s, slower than one sample per \
+             {MAX_PERIOD_S} s: a robot log is sampled at 10 Hz or faster; if its times are in \
+             milliseconds or another unit, say so in a column map (`[time] unit = \"ms\"`)"
         )));
     }
     let steps: Vec<f64> = frame
@@ -237,7 +263,8 @@ pub(super) fn repair_time_base(
     Ok(TimeBase {
         duplicates_merged,
         unwrapped_jumps,
-        suspect_jumps,
+        suspect_jumps: jumps.count,
+        jump_warning,
         median_period_s: median,
         period_jitter_s,
     })
@@ -337,6 +364,7 @@ pub(super) fn align_power(
             max_lag,
         ) {
             Ok(l) => estimate = Some(l),
+            Err(Error::InvalidInput(m)) => note = Some(m),
             Err(e) => note = Some(e.to_string()),
         }
     }
