@@ -254,6 +254,7 @@ pub fn read_log(
     let label = path.display().to_string();
     let file = LogFile::open(path, &label, map.and_then(|m| m.delimiter))?;
     let owned;
+    let owned_map = map.is_none();
     let map = match map {
         Some(m) => m,
         None => {
@@ -264,9 +265,23 @@ pub fn read_log(
     map.validate()
         .map_err(|e| Error::InvalidInput(format!("{label}: column map: {e}")))?;
     let kind = map.kind(opts.power);
-    let source = map
-        .power_source(kind)
-        .map_err(|e| Error::InvalidInput(format!("{label}: {e}")))?;
+    let source = map.power_source(kind).map_err(|e| {
+        Error::InvalidInput(if owned_map {
+            // No map: the columns powertwin's own names would need are what is missing.
+            let needs = match kind {
+                PowerKind::PerMotor => "one p_elec1_W.. column per motor",
+                _ => "a P_total_W (or p_total_W) column",
+            };
+            format!(
+                "{label}: no column map given, and power of the kind asked for (--power) needs \
+                 {needs} in powertwin's own names (or pass --columns MAP.toml); columns found: {}",
+                file.header.join(", ")
+            )
+        } else {
+            format!("{label}: {e}")
+        })
+    })?;
+
     let wanted = Wanted::of(map, &source);
     wanted.check_present(&file.header, &label)?;
     let cols = file.read(&wanted.names, map.time.unit)?;
