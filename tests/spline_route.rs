@@ -579,7 +579,7 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
     // Rest-move-rest: the rests show the encoders alone (1e-5 rad, uniform noise).
     for rate in [10.0, 100.0] {
         let (t, q, _) = rest_move_rest(rate);
-        let s = noise_levels(&q, &rest_intervals(&t, &q));
+        let s = noise_levels(&t, &q, &rest_intervals(&t, &q));
         assert!(
             s.iter().all(|s| (s / 1e-5 - 1.0).abs() < 0.35),
             "{rate} Hz: {s:?}"
@@ -598,9 +598,14 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
         vec![x]
     };
     let none = |q: &[Vec<f64>]| vec![false; q[0].len() - 1];
-    assert_eq!(noise_levels(&wave(10.0), &none(&wave(10.0))), vec![0.0]);
+    // Evenly spaced times (the plain differences; their spacing does not matter).
+    let even = |m: usize| -> Vec<f64> { (0..m).map(|k| k as f64).collect() };
+    assert_eq!(
+        noise_levels(&even(40), &wave(10.0), &none(&wave(10.0))),
+        vec![0.0]
+    );
     let fast = wave(1000.0);
-    let s = noise_levels(&fast, &none(&fast))[0];
+    let s = noise_levels(&even(4000), &fast, &none(&fast))[0];
     assert!((s / 1e-5 - 1.0).abs() < 0.2, "{s}");
     // Joint by joint: a 10 Hz joint that only jitters (white, 5e-4 rad) beside one that
     // moves smoothly keeps its level to itself; the smooth joint is interpolated.
@@ -610,7 +615,7 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
         .map(|_| 5e-4 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64))
         .collect();
     let both = vec![smooth, jitter];
-    let s = noise_levels(&both, &none(&both));
+    let s = noise_levels(&even(200), &both, &none(&both));
     assert_eq!(s[0], 0.0, "{s:?}");
     assert!((s[1] / 5e-4 - 1.0).abs() < 0.5, "{s:?}");
     // A 1 kHz motion with 1e-5 rad of noise that ends in a short rest whose 22 samples
@@ -624,7 +629,7 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
     x.extend((0..22).map(|_| held + 0.7e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0)));
     let mut rest = vec![false; x.len() - 1];
     rest[4000..].fill(true);
-    let s = noise_levels(&[x], &rest)[0];
+    let s = noise_levels(&even(x.len()), &[x], &rest)[0];
     assert!((s / 1e-5 - 1.0).abs() < 0.08, "{s}");
     // A 250 Hz motion with 2.6e-5 rad of noise that starts from a rest of three samples
     // scattering by only 0.4 of that: 2 degrees of freedom allow a ratio of up to 10 at
@@ -639,7 +644,7 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
     }));
     let mut rest = vec![false; x.len() - 1];
     rest[..2].fill(true);
-    let s = noise_levels(&[x], &rest)[0];
+    let s = noise_levels(&even(x.len()), &[x], &rest)[0];
     assert!((s / sigma - 1.0).abs() < 0.1, "{s}");
     // At 10 Hz, a joint that jitters while the others move (5e-4 rad, white) does not
     // pool with its encoder noise at rest (1e-5 rad): the rest decides.
@@ -650,7 +655,7 @@ fn encoder_noise_from_the_rests_or_from_white_differences() {
     x.extend((0..10).map(|_| 1e-5 * 3f64.sqrt() * rng.random_range(-1.0..1.0f64)));
     let mut rest = vec![false; x.len() - 1];
     rest[200..].fill(true);
-    let s = noise_levels(&[x], &rest)[0];
+    let s = noise_levels(&even(x.len()), &[x], &rest)[0];
     assert!(s < 2e-5, "{s}");
 }
 #[test]

@@ -216,7 +216,7 @@ pub fn from_spline(t: &[f64], q: &[Vec<f64>]) -> Result<SplineRoute> {
         ddq: vec![vec![0.0; m]; n],
     };
     let stretches = stretches(&rest);
-    let sigma = noise_levels(q, &rest);
+    let sigma = noise_levels(t, q, &rest);
     let jitter = rest_jitter(q, &rest);
     let (leave, reach) = hold_rests(t, q, &stretches, &jitter, &mut s);
     let extra = spline_moves(t, q, &stretches, &sigma, (&leave, &reach), &mut s)?;

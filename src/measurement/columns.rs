@@ -254,8 +254,9 @@ pub struct CleanOptions {
     pub rest_speed_rad_s: f64,
     /// Rests at least this long, s, are reported.
     pub long_rest_s: f64,
-    /// Replace jittered stamps of a fixed-rate logger by their uniform grid (see
-    /// [`crate::measurement::clean::regularize`]).
+    /// Replace jittered stamps of a fixed-rate logger by their uniform grid, unless the
+    /// positions are clearly smoother against the stamps as logged (a logger that samples
+    /// at the uneven times it stamps; see [`crate::measurement::clean::regularize`]).
     pub regularize_jitter: bool,
     /// Largest stamp deviation from the grid, in sample periods, for that.
     pub max_jitter_periods: f64,

@@ -1,6 +1,7 @@
 //! Low-level numerical solvers shared across the crate: [`lm`], the one bounded
 //! Levenberg–Marquardt loop that the power fit, the consistent projection and the inverse
-//! kinematics run; and [`dot`], the inner product of the power model's hot loops.
+//! kinematics run; [`dot`], the inner product of the power model's hot loops; and
+//! [`scaled_divided_differences`], the differences of samples at uneven times.
 
 pub mod lm;
 
@@ -22,6 +23,39 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
         }
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + rest
+}
+
+/// The `p`-th divided differences of the samples `x` at the times `t` (s, strictly
+/// increasing), each over the samples `k..=k+p` and scaled to unit variance under white noise
+/// of unit variance: `sum_j w_j x_j / |w|` with `w_j = 1 / prod_(l != j) (t_j - t_l)`, in the
+/// unit of `x`. Like the plain difference `Δ^p x / sqrt(C(2p, p))`, which it is at evenly
+/// spaced times (to rounding), it is blind to polynomials of degree below `p`: what is left
+/// is the part of the samples that no such polynomial through `p + 1` of them follows
+/// (noise, or a motion the sampling does not resolve). `len - p` values, none for
+/// `len <= p`.
+pub fn scaled_divided_differences(t: &[f64], x: &[f64], p: usize) -> Vec<f64> {
+    let len = t.len().min(x.len());
+    let mut w = vec![0.0; p + 1];
+    (0..len.saturating_sub(p))
+        .map(|k| {
+            // Times scaled to the window's span: the scale cancels in `w / |w|`.
+            let span = t[k + p] - t[k];
+            for (j, wj) in w.iter_mut().enumerate() {
+                let tj = t[k + j];
+                *wj = 1.0
+                    / (0..=p)
+                        .filter(|&l| l != j)
+                        .map(|l| (tj - t[k + l]) / span)
+                        .product::<f64>();
+            }
+            let norm = w.iter().map(|v| v * v).sum::<f64>().sqrt();
+            w.iter()
+                .zip(&x[k..=k + p])
+                .map(|(wj, xj)| wj * xj)
+                .sum::<f64>()
+                / norm
+        })
+        .collect()
 }
 
 #[cfg(test)]
