@@ -217,6 +217,21 @@ fn odd_logs_are_read_with_a_warning_or_refused_when_no_robot_log_is_like_them() 
     assert!(warned(&rep, "--power total"), "{rep}");
     let (_, rep) = read(&p, None);
     assert!(!warned(&rep, "--power total"), "{rep}");
+    // A column that does not follow the motion.
+    let flat = signed
+        .lines()
+        .enumerate()
+        .map(|(k, l)| match k {
+            0 => l.to_string(),
+            _ => {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{},{},{},200", f[0], f[1], f[2])
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let (_, rep) = read(&write("flat.csv", &flat), None);
+    assert!(warned(&rep, "not its power"), "{rep}");
 }
 
 #[test]

@@ -155,8 +155,15 @@ pub fn slice_time(log: &Log, (start, end): (f64, f64)) -> Result<Log> {
         )));
     }
     let mut s = log.slice(a..b);
-    s.source = format!("{} [{start}-{end} s]", log.source);
+    s.source = format!("{} [{}-{} s]", log.source, ms(start), ms(end));
     Ok(s)
+}
+
+/// A time (s) rounded to the millisecond for a label: the ranges of auto segments are sample
+/// times, whose last digits say nothing.
+fn ms(t_s: f64) -> f64 {
+    // Adding 0 turns the -0 of a tiny negative time into 0.
+    (t_s * 1e3).round() / 1e3 + 0.0
 }
 
 /// The segments of `logs` (pieces of one or more files, times from the first sample of

@@ -140,8 +140,9 @@ const MIN_RATE_HZ: f64 = 10.0;
 
 /// The warnings of a read: a rate below [`MIN_RATE_HZ`], a joint that steps by more than pi
 /// (`jump`), DC-bus or grid power that goes clearly negative (below -2 % of its highest
-/// value: such a meter never reads negative, beyond its noise), and power that never reaches
-/// 5 W (an arm that moves draws more: likely kW).
+/// value: such a meter never reads negative, beyond its noise), power that stays within 1 W
+/// while a joint moves over 0.01 rad, and power that never reaches 5 W (an arm that moves
+/// draws more: likely kW).
 fn warnings(
     logs: &[Log],
     kind: PowerKind,
@@ -170,6 +171,23 @@ fn warnings(
             } else {
                 "grid"
             }
+        ));
+    }
+    let moves = logs.iter().any(|l| {
+        l.q_rad.iter().any(|q| {
+            let (lo, hi) = q
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(*v), b.max(*v))
+                });
+            hi - lo > 0.01
+        })
+    });
+    if moves && highest - lowest < 1.0 {
+        w.push(format!(
+            "the power stays within {:.3} W while the joints move: an arm's power follows its \
+             motion, so this column is not its power (or the meter holds its reading)",
+            highest - lowest
         ));
     }
     if highest.max(-lowest) < 5.0 {
@@ -204,11 +222,16 @@ impl fmt::Display for ReadReport {
         )?;
         writeln!(
             f,
-            "  gaps: {} ({} samples in too-short pieces dropped); block-averaged {} samples -> {:.1} Hz; rests >= long_rest_s kept: {} ({:.1} s)",
+            "  gaps: {} ({} samples in too-short pieces dropped); {}; rests >= long_rest_s kept: {} ({:.1} s)",
             self.gaps,
             self.short_piece_samples_dropped,
-            self.decimation,
-            self.working_rate_hz,
+            match self.decimation {
+                1 => format!("worked at {:.1} Hz (no averaging)", self.working_rate_hz),
+                d => format!(
+                    "block-averaged {d} samples -> {:.1} Hz",
+                    self.working_rate_hz
+                ),
+            },
             self.long_rests,
             self.long_rest_total_s
         )?;
@@ -237,7 +260,8 @@ impl fmt::Display for ReadReport {
         let pieces: Vec<String> = self
             .pieces
             .iter()
-            .map(|(a, b, n)| format!("{a:.3}-{b:.3} s ({n} samples)"))
+            // Adding 0 turns a -0 of rounding into 0.
+            .map(|(a, b, n)| format!("{:.3}-{:.3} s ({n} samples)", a + 0.0, b + 0.0))
             .collect();
         write!(f, "  pieces: {}", pieces.join(", "))
     }
