@@ -380,13 +380,14 @@ pub fn sweep_name(cell: &Cell) -> String {
     format!("sweep_{}mps_{}kg", cell.speed_m_s, cell.load_kg)
 }
 
-/// `--allow-overload`: what `simulate`, `sweep` and `reproduce` do with a payload above the
-/// robot's rating and with twin runs the drives cannot follow.
+/// `--allow-overload`: what `simulate`, `sweep`, `optimize` and `reproduce` do with a payload
+/// above the robot's rating and with twin runs the drives cannot follow.
 #[derive(Debug, Args)]
 pub struct OverloadArgs {
-    /// Run payloads above the robot's rated payload (rated_payload_kg in the drive file), and
-    /// exit 0 although sweep cells saturate a torque or track worse than 0.05 rad (they are
-    /// still flagged in every output; without this option `sweep` exits 3 on flagged cells).
+    /// Run payloads above the robot's rated payload (rated_payload_kg in the drive file); for
+    /// sweep, optimize and reproduce also exit 0 although twin runs (sweep cells, plans)
+    /// saturate a torque or track worse than 0.05 rad: they are still flagged in every
+    /// output, and without this option those commands exit 3 after writing them.
     #[arg(long)]
     allow_overload: bool,
 }
