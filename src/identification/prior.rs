@@ -347,7 +347,7 @@ impl Prior {
 
 /// Width (W/(N m)^2) of joint `j`'s copper-loss coefficient where the drive file gives none:
 /// [`COPPER_AT_LIMITS`] times its velocity limit over its effort limit (the URDF's, else
-/// [`DEFAULT_VELOCITY_RAD_S`] and [`DEFAULT_EFFORT_NM`]).
+/// 3 rad/s and 10 N m).
 pub fn copper_default_std(robot: &Robot, j: usize) -> f64 {
     let limits = &robot.joints()[j].limits;
     let effort = limits

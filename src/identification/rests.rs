@@ -186,7 +186,7 @@ pub(super) fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 }
 
 /// Encoder noise of each joint's positions `q[i][m]`, rad, sampled at times `t` (s,
-/// increasing; the differences are taken at them, [`difference_sigma`]), given the
+/// increasing; the differences are taken at them), given the
 /// [`rest_intervals`] `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
 /// each joint's samples about each rest's mean, pooled over the rests, and where the joint's
 /// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that

@@ -130,7 +130,9 @@ pub struct ReadReport {
     pub lag_trimmed: usize,
     /// The pieces returned: time ranges, s from the first sample, and sample counts.
     pub pieces: Vec<(f64, f64, usize)>,
-    /// What in the log looks wrong but was read as it is ([`warnings`]).
+    /// What in the log looks wrong but was read as it is: a rate below 10 Hz, a joint
+    /// stepping by more than pi, negative DC-bus or grid power, power that does not follow
+    /// the motion or never reaches 5 W.
     pub warnings: Vec<String>,
 }
 
