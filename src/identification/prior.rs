@@ -197,34 +197,7 @@ impl Prior {
             .l()
             .solve_lower_triangular(&DMatrix::identity(base.rank(), base.rank()))
             .ok_or_else(|| Error::Numerical("prior covariance root not invertible".into()))?;
-        let copper = (0..robot.dof())
-            .map(|j| {
-                let c = drive.map_or(0.0, |d| d.joints()[j].copper_loss);
-                Some(if c > 0.0 {
-                    Normal {
-                        mean: c,
-                        std: widths.copper_rel * c,
-                    }
-                } else {
-                    Normal {
-                        mean: 0.0,
-                        std: copper_default_std(robot, j),
-                    }
-                })
-            })
-            .collect();
-        let gear = (0..robot.dof())
-            .map(|j| {
-                let g = drive.map_or(0.0, |d| {
-                    let u = &d.joints()[j].unmodelled;
-                    0.5 * (u.gear_friction + u.gear_friction_braking)
-                });
-                (g > 0.0).then_some(Normal {
-                    mean: g,
-                    std: widths.gear_rel * g,
-                })
-            })
-            .collect();
+        let (copper, gear) = loss_priors(robot, drive, widths);
         let standby_w = drive
             .map(|d| d.joints().iter().map(|j| j.standby_power).sum::<f64>())
             .filter(|w| *w > 0.0);
@@ -343,6 +316,46 @@ impl Prior {
             .map(|k| self.covariance[(k, k)].sqrt())
             .collect()
     }
+}
+
+/// The priors of each joint's copper-loss coefficient (the drive file's value at
+/// [`PriorWidths::copper_rel`], else zero at [`copper_default_std`]) and of its load-dependent
+/// gear friction (the drive file's mean of motoring and braking at
+/// [`PriorWidths::gear_rel`], else none).
+fn loss_priors(
+    robot: &Robot,
+    drive: Option<&Drive>,
+    widths: &PriorWidths,
+) -> (Vec<Option<Normal>>, Vec<Option<Normal>>) {
+    let copper = (0..robot.dof())
+        .map(|j| {
+            let c = drive.map_or(0.0, |d| d.joints()[j].copper_loss);
+            Some(if c > 0.0 {
+                Normal {
+                    mean: c,
+                    std: widths.copper_rel * c,
+                }
+            } else {
+                Normal {
+                    mean: 0.0,
+                    std: copper_default_std(robot, j),
+                }
+            })
+        })
+        .collect();
+    let gear = (0..robot.dof())
+        .map(|j| {
+            let g = drive.map_or(0.0, |d| {
+                let u = &d.joints()[j].unmodelled;
+                0.5 * (u.gear_friction + u.gear_friction_braking)
+            });
+            (g > 0.0).then_some(Normal {
+                mean: g,
+                std: widths.gear_rel * g,
+            })
+        })
+        .collect();
+    (copper, gear)
 }
 
 /// Width (W/(N m)^2) of joint `j`'s copper-loss coefficient where the drive file gives none:

@@ -269,6 +269,31 @@ impl fmt::Display for ReadReport {
     }
 }
 
+/// The error of a map whose power columns do not fit the power kind `kind`. Without a map
+/// of the user's (`header`: the file's columns, for powertwin's own names), the columns
+/// those names would need are what is missing.
+fn power_column_error(
+    e: Error,
+    header: Option<&Vec<String>>,
+    kind: PowerKind,
+    label: &str,
+) -> Error {
+    Error::InvalidInput(match header {
+        Some(header) => {
+            let needs = match kind {
+                PowerKind::PerMotor => "one p_elec1_W.. column per motor",
+                _ => "a P_total_W (or p_total_W) column",
+            };
+            format!(
+                "{label}: no column map given, and power of the kind asked for (--power) needs \
+                 {needs} in powertwin's own names (or pass --columns MAP.toml); columns found: {}",
+                header.join(", ")
+            )
+        }
+        None => format!("{label}: {e}"),
+    })
+}
+
 /// Read a log file with `map` (None: powertwin's own column names) into gap-free [`Log`]s
 /// (one unless the file has gaps), with the report of what was done. Times are seconds from
 /// the file's first sample. See the module docs and [`crate::measurement::clean`].
@@ -291,22 +316,9 @@ pub fn read_log(
     map.validate()
         .map_err(|e| Error::InvalidInput(format!("{label}: column map: {e}")))?;
     let kind = map.kind(opts.power);
-    let source = map.power_source(kind).map_err(|e| {
-        Error::InvalidInput(if owned_map {
-            // No map: the columns powertwin's own names would need are what is missing.
-            let needs = match kind {
-                PowerKind::PerMotor => "one p_elec1_W.. column per motor",
-                _ => "a P_total_W (or p_total_W) column",
-            };
-            format!(
-                "{label}: no column map given, and power of the kind asked for (--power) needs \
-                 {needs} in powertwin's own names (or pass --columns MAP.toml); columns found: {}",
-                file.header.join(", ")
-            )
-        } else {
-            format!("{label}: {e}")
-        })
-    })?;
+    let source = map
+        .power_source(kind)
+        .map_err(|e| power_column_error(e, owned_map.then_some(&file.header), kind, &label))?;
 
     let wanted = Wanted::of(map, &source);
     wanted.check_present(&file.header, &label)?;
