@@ -180,36 +180,30 @@ fn identify_refuses_data_from_another_robot_and_bad_input() {
     assert!(err.contains("nope"), "{err}");
 }
 
+/// The directory of a CSV twin run (`simulate --noise-seed 1` with `simulate_args`) of the
+/// excitation `excite --seed 1` with `excite_args`, named after `name`.
+fn excite_and_simulate(name: &str, excite_args: &[&str], simulate_args: &[&str]) -> PathBuf {
+    let (traj, data) = (tmp(&format!("{name}-ex.csv")), tmp(&format!("{name}-run")));
+    let s = |p: &PathBuf| p.to_str().unwrap().to_string();
+    let (traj, out) = (s(&traj), s(&data));
+    let mut excite = vec!["excite", "--seed", "1", "--out", &traj];
+    excite.extend(excite_args);
+    common::run_ok(&excite);
+    let mut simulate = vec!["simulate", "--trajectory", &traj, "--format", "csv"];
+    simulate.extend(["--noise-seed", "1", "--out", &out]);
+    simulate.extend(simulate_args);
+    common::run_ok(&simulate);
+    data
+}
+
 /// Identification gives the same model to the bit on one thread and on four. At 100 Hz,
 /// fitted on every state, a log has enough samples for the fit's sums to run in parallel;
 /// a parallel sum that splits where the work is stolen gave other last digits from run to
 /// run.
 #[test]
 fn identify_gives_the_same_bits_on_one_thread_and_on_four() {
-    let (traj, data) = (tmp("threads-ex.csv"), tmp("threads-run"));
+    let data = excite_and_simulate("threads", &["--periods", "1"], &["--sample-rate", "100"]);
     let s = |p: &PathBuf| p.to_str().unwrap().to_string();
-    common::run_ok(&[
-        "excite",
-        "--seed",
-        "1",
-        "--periods",
-        "1",
-        "--out",
-        &s(&traj),
-    ]);
-    common::run_ok(&[
-        "simulate",
-        "--trajectory",
-        &s(&traj),
-        "--format",
-        "csv",
-        "--sample-rate",
-        "100",
-        "--noise-seed",
-        "1",
-        "--out",
-        &s(&data),
-    ]);
     let model = |threads: &str| {
         let out = tmp(&format!("threads-{threads}.json"));
         let status = std::process::Command::new(env!("CARGO_BIN_EXE_powertwin"))
@@ -230,26 +224,8 @@ fn identify_gives_the_same_bits_on_one_thread_and_on_four() {
 
 #[test]
 fn a_bus_log_in_kw_is_an_error_to_identify_not_a_panic() {
-    let (traj, data) = (tmp("kw-ex.csv"), tmp("kw-run"));
+    let data = excite_and_simulate("kw", &["--periods", "2"], &[]);
     let s = |p: &PathBuf| p.to_str().unwrap().to_string();
-    common::run_ok(&[
-        "excite",
-        "--seed",
-        "1",
-        "--periods",
-        "2",
-        "--out",
-        &s(&traj),
-    ]);
-    common::run_ok(&[
-        "simulate",
-        "--trajectory",
-        &s(&traj),
-        "--format",
-        "csv",
-        "--out",
-        &s(&data),
-    ]);
     // The same log (time, positions and the bus power) with its power written in kW under
     // the W column's name.
     let text = std::fs::read_to_string(data.join("measured.csv")).unwrap();

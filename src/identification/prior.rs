@@ -250,21 +250,12 @@ impl Prior {
         let per_link = model.layout.per_link();
         let parameters: Vec<ParamSource> = (0..nb)
             .map(|k| {
-                let std = post[(k, k)].max(0.0).sqrt();
-                let ratio = std / prior_std[k];
-                ParamSource {
-                    name: model.names[k].clone(),
-                    joint: model.columns[k] / per_link + 1,
-                    value: model.theta[k],
-                    std,
-                    prior_std: prior_std[k],
-                    prior_ratio: ratio,
-                    source: if ratio > MOSTLY_PRIOR_RATIO {
-                        Source::Prior
-                    } else {
-                        Source::Data
-                    },
-                }
+                ParamSource::of(
+                    model.names[k].clone(),
+                    model.columns[k] / per_link + 1,
+                    (model.theta[k], post[(k, k)].max(0.0).sqrt()),
+                    prior_std[k],
+                )
             })
             .collect();
         let mut joints: Vec<usize> = parameters
@@ -283,21 +274,12 @@ impl Prior {
                 let var =
                     (i < model.copper.len() && k < np).then(|| model.covariance[k * np + k])?;
                 (var > 0.0).then(|| {
-                    let std = var.sqrt();
-                    let ratio = std / prior.std;
-                    ParamSource {
-                        name: format!("c{}_W_per_Nm2", i + 1),
-                        joint: i + 1,
-                        value: model.copper[i],
-                        std,
-                        prior_std: prior.std,
-                        prior_ratio: ratio,
-                        source: if ratio > MOSTLY_PRIOR_RATIO {
-                            Source::Prior
-                        } else {
-                            Source::Data
-                        },
-                    }
+                    ParamSource::of(
+                        format!("c{}_W_per_Nm2", i + 1),
+                        i + 1,
+                        (model.copper[i], var.sqrt()),
+                        prior.std,
+                    )
                 })
             })
             .collect();
@@ -405,6 +387,28 @@ pub struct ParamSource {
     pub prior_ratio: f64,
     /// Data or mostly prior ([`MOSTLY_PRIOR_RATIO`]).
     pub source: Source,
+}
+
+impl ParamSource {
+    /// Parameter `name` of joint `joint` (1-based) with its identified value and posterior
+    /// standard deviation `(value, std)` against its prior standard deviation `prior_std`
+    /// (SI): mostly prior where `std / prior_std` exceeds [`MOSTLY_PRIOR_RATIO`].
+    fn of(name: String, joint: usize, (value, std): (f64, f64), prior_std: f64) -> ParamSource {
+        let prior_ratio = std / prior_std;
+        ParamSource {
+            name,
+            joint,
+            value,
+            std,
+            prior_std,
+            prior_ratio,
+            source: if prior_ratio > MOSTLY_PRIOR_RATIO {
+                Source::Prior
+            } else {
+                Source::Data
+            },
+        }
+    }
 }
 
 /// What the logs determined: the directions of the base-parameter space where the posterior
