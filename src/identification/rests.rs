@@ -143,11 +143,10 @@ fn evenly_spaced(t: &[f64]) -> bool {
 /// difference over the samples `k..=k+p` scaled to unit variance under white noise of unit
 /// standard deviation. Evenly spaced samples ([`evenly_spaced`]): `Δ^p x / sqrt(C(2p, p))`.
 /// Otherwise the divided differences at the logged times ([`scaled_divided_differences`]),
-/// which, like `Δ^p`, are blind to polynomials of degree below `p`. A smooth motion sampled
+/// which, like `Δ^p`, are blind to polynomials of degree below `p`: a smooth motion sampled
 /// at uneven times but taken as evenly spaced has large differences that look like white
-/// noise (at 10 Hz with ±40 % of a period of timing jitter, 0.02-0.07 rad on the IRB 1200's
-/// joints), and the smoothing spline flattened the motion to that level (-6 % of energy).
-/// `None` for too few samples.
+/// noise, and the smoothing spline would flatten the motion to that level
+/// (docs/experiments.md#logs-sampled-at-uneven-times). `None` for too few samples.
 fn difference_sigma(t: &[f64], x: &[f64], p: usize) -> Option<f64> {
     if x.len() <= p + 2 {
         return None;
@@ -186,8 +185,8 @@ pub(super) fn stretches(rest: &[bool]) -> Vec<(bool, usize, usize)> {
 }
 
 /// Encoder noise of each joint's positions `q[i][m]`, rad, sampled at times `t` (s,
-/// increasing; the differences are taken at them), given the
-/// [`rest_intervals`] `rest`. With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
+/// increasing; the differences are taken at them), given the [`rest_intervals`] `rest`.
+/// With rests holding at least [`MIN_REST_DOF`] degrees of freedom: the scatter of
 /// each joint's samples about each rest's mean, pooled over the rests, and where the joint's
 /// differences also look like white noise no larger than [`AGREED_NOISE_RATIO`] times that
 /// (or than the rests' sampling error allows, for rests of few samples:

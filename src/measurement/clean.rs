@@ -236,11 +236,11 @@ pub const ROUGHNESS_ORDER: usize = 3;
 /// Largest ratio of the positions' roughness against the stamps as logged to their roughness
 /// against the stamps' uniform grid for which [`regularize`] keeps the logged stamps (the
 /// sum over the joints of the squared [`ROUGHNESS_ORDER`]-th divided differences, scaled to
-/// unit noise variance, rad^2: [`crate::numerics::scaled_divided_differences`]). A logger
-/// that samples at uneven times and stamps them correctly gives ratios of 1/3 (±5 % of a
-/// period of jitter at 10 Hz) to 1/3000 (±40 % at 25 Hz) on the twin's IRB 1200 motion; one
-/// whose stamps alone are jittered (±20 %) gives about 30. Where the positions cannot tell
-/// (a log at rest, or noise above what the jitter moves), the grid is taken, as before.
+/// unit noise variance, rad^2: [`crate::numerics::scaled_divided_differences`]). Why a
+/// half: the stamps are kept only where they are clearly the smoother time base; a logger
+/// that samples unevenly gives ratios far below it and one whose stamps alone are jittered
+/// far above (docs/experiments.md#logs-sampled-at-uneven-times). Where the positions cannot
+/// tell (a log at rest, or noise above what the jitter moves), the grid is taken.
 pub const STAMPS_SMOOTHER_RATIO: f64 = 0.5;
 
 /// Sum over the joints `q[i][m]` (rad) of the squared [`ROUGHNESS_ORDER`]-th divided
