@@ -16,14 +16,10 @@
 //! relative to the drive file's value; where the file gives none (zero), a width from the
 //! joint's rating (see [`PriorWidths`]).
 //!
-//! The copper-loss coefficients have a prior too ([`Prior::copper`]), independent of the
-//! rest: the drive file's value where it gives one (a joint whose logged torques stay small
-//! leaves its coefficient at the data sheet's value, not at zero, so a payload heavier than
-//! the logs carried still pays its copper loss), else zero with a width from the joint's
-//! rating ([`COPPER_AT_LIMITS`]). Without one, a joint whose torques stay small (a wrist)
-//! leaves its coefficient free along a direction the data do not see (a coefficient growing
-//! without bound while the fitted torque shrinks to zero keeps `c tau^2` in place), and its
-//! spread, millions of W/(N m)^2, went into every prediction interval.
+//! The drive file's copper-loss coefficients are a prior too ([`Prior::copper`]), independent
+//! of the rest, where the file gives one: a joint whose logged torques stay small leaves its
+//! coefficient at the data sheet's value, not at zero, so a payload heavier than the logs
+//! carried still pays its copper loss.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -99,20 +95,6 @@ const ACCEL_TIME_S: f64 = 0.3;
 /// Effort (N m) assumed for a joint whose URDF gives none.
 const DEFAULT_EFFORT_NM: f64 = 10.0;
 
-/// Velocity limit (rad/s) assumed for the copper-loss width of a joint whose URDF gives none
-/// (180 deg/s, a usual joint-speed limit of industrial and collaborative arms).
-const DEFAULT_VELOCITY_RAD_S: f64 = 3.0;
-
-/// Width (one standard deviation) of a copper-loss coefficient the drive file does not give,
-/// as the copper loss at the joint's effort limit over its power at the effort and velocity
-/// limits: `c = COPPER_AT_LIMITS * velocity / effort` W/(N m)^2, centred on zero (the URDF
-/// holds no copper loss). A servo motor's copper loss at its peak torque is about a fifth of
-/// its peak power (the shipped drive files' estimates give 0.09 to 0.29: UR5 0.09 and 0.18,
-/// IRB 1200 0.11 to 0.17, Panda 0.20 and 0.29); a width of 0.3 holds each within about one
-/// standard deviation while ruling out the unbounded coefficients the data alone cannot
-/// rule out on a joint whose torques stay small.
-pub const COPPER_AT_LIMITS: f64 = 0.3;
-
 /// A Gaussian prior on the base parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Prior {
@@ -123,11 +105,10 @@ pub struct Prior {
     /// A root of the precision, `R = L^-1` with `covariance = L L^T` (lower triangular):
     /// `R^T R = covariance^-1`.
     pub root_precision: DMatrix<f64>,
-    /// Per joint, the copper-loss coefficient, W/(N m)^2, with its width (independent of the
-    /// base parameters). [`Prior::new`] gives every joint one: the drive file's value with
-    /// [`PriorWidths::copper_rel`], else (zero, or no drive file) zero with the width
-    /// [`copper_default_std`] from the joint's rating. `None` (set by hand): no prior, the
-    /// data alone decide it, held at zero where they cannot tell it from zero.
+    /// Per joint, the drive file's copper-loss coefficient, W/(N m)^2, with its width
+    /// (independent of the base parameters); `None` where the file gives none (zero, or no
+    /// drive file): the data alone then decide it, held at zero where they cannot tell it
+    /// from zero.
     pub copper: Vec<Option<Normal>>,
     /// Per joint, the drive file's load-dependent gear friction (the mean of its motoring and
     /// braking values, the form the `gear` estimator fits), dimensionless, with its width;
@@ -197,7 +178,27 @@ impl Prior {
             .l()
             .solve_lower_triangular(&DMatrix::identity(base.rank(), base.rank()))
             .ok_or_else(|| Error::Numerical("prior covariance root not invertible".into()))?;
-        let (copper, gear) = loss_priors(robot, drive, widths);
+        let copper = (0..robot.dof())
+            .map(|j| {
+                let c = drive.map_or(0.0, |d| d.joints()[j].copper_loss);
+                (c > 0.0).then_some(Normal {
+                    mean: c,
+                    std: widths.copper_rel * c,
+                })
+            })
+            .collect();
+        let gear = (0..robot.dof())
+            .map(|j| {
+                let g = drive.map_or(0.0, |d| {
+                    let u = &d.joints()[j].unmodelled;
+                    0.5 * (u.gear_friction + u.gear_friction_braking)
+                });
+                (g > 0.0).then_some(Normal {
+                    mean: g,
+                    std: widths.gear_rel * g,
+                })
+            })
+            .collect();
         let standby_w = drive
             .map(|d| d.joints().iter().map(|j| j.standby_power).sum::<f64>())
             .filter(|w| *w > 0.0);
@@ -250,12 +251,21 @@ impl Prior {
         let per_link = model.layout.per_link();
         let parameters: Vec<ParamSource> = (0..nb)
             .map(|k| {
-                ParamSource::of(
-                    model.names[k].clone(),
-                    model.columns[k] / per_link + 1,
-                    (model.theta[k], post[(k, k)].max(0.0).sqrt()),
-                    prior_std[k],
-                )
+                let std = post[(k, k)].max(0.0).sqrt();
+                let ratio = std / prior_std[k];
+                ParamSource {
+                    name: model.names[k].clone(),
+                    joint: model.columns[k] / per_link + 1,
+                    value: model.theta[k],
+                    std,
+                    prior_std: prior_std[k],
+                    prior_ratio: ratio,
+                    source: if ratio > MOSTLY_PRIOR_RATIO {
+                        Source::Prior
+                    } else {
+                        Source::Data
+                    },
+                }
             })
             .collect();
         let mut joints: Vec<usize> = parameters
@@ -265,30 +275,11 @@ impl Prior {
             .collect();
         joints.sort_unstable();
         joints.dedup();
-        // The copper-loss coefficients the model estimated (a positive variance; `total`
-        // holds them at zero), each against its prior.
-        let copper = (self.copper.iter().enumerate())
-            .filter_map(|(i, prior)| {
-                let prior = (*prior)?;
-                let k = nb + i;
-                let var =
-                    (i < model.copper.len() && k < np).then(|| model.covariance[k * np + k])?;
-                (var > 0.0).then(|| {
-                    ParamSource::of(
-                        format!("c{}_W_per_Nm2", i + 1),
-                        i + 1,
-                        (model.copper[i], var.sqrt()),
-                        prior.std,
-                    )
-                })
-            })
-            .collect();
         Ok(Determination {
             directions,
             of: nb,
             parameters,
             mostly_prior_joints: joints,
-            copper,
         })
     }
 
@@ -298,61 +289,6 @@ impl Prior {
             .map(|k| self.covariance[(k, k)].sqrt())
             .collect()
     }
-}
-
-/// The priors of each joint's copper-loss coefficient (the drive file's value at
-/// [`PriorWidths::copper_rel`], else zero at [`copper_default_std`]) and of its load-dependent
-/// gear friction (the drive file's mean of motoring and braking at
-/// [`PriorWidths::gear_rel`], else none).
-fn loss_priors(
-    robot: &Robot,
-    drive: Option<&Drive>,
-    widths: &PriorWidths,
-) -> (Vec<Option<Normal>>, Vec<Option<Normal>>) {
-    let copper = (0..robot.dof())
-        .map(|j| {
-            let c = drive.map_or(0.0, |d| d.joints()[j].copper_loss);
-            Some(if c > 0.0 {
-                Normal {
-                    mean: c,
-                    std: widths.copper_rel * c,
-                }
-            } else {
-                Normal {
-                    mean: 0.0,
-                    std: copper_default_std(robot, j),
-                }
-            })
-        })
-        .collect();
-    let gear = (0..robot.dof())
-        .map(|j| {
-            let g = drive.map_or(0.0, |d| {
-                let u = &d.joints()[j].unmodelled;
-                0.5 * (u.gear_friction + u.gear_friction_braking)
-            });
-            (g > 0.0).then_some(Normal {
-                mean: g,
-                std: widths.gear_rel * g,
-            })
-        })
-        .collect();
-    (copper, gear)
-}
-
-/// Width (W/(N m)^2) of joint `j`'s copper-loss coefficient where the drive file gives none:
-/// [`COPPER_AT_LIMITS`] times its velocity limit over its effort limit (the URDF's, else
-/// 3 rad/s and 10 N m).
-pub fn copper_default_std(robot: &Robot, j: usize) -> f64 {
-    let limits = &robot.joints()[j].limits;
-    let effort = limits
-        .effort
-        .filter(|e| e.is_finite() && *e > 0.0)
-        .unwrap_or(DEFAULT_EFFORT_NM);
-    let velocity = Some(limits.velocity)
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .unwrap_or(DEFAULT_VELOCITY_RAD_S);
-    COPPER_AT_LIMITS * velocity / effort
 }
 
 /// Ratio of a parameter's posterior to prior standard deviation above which it is mostly
@@ -389,28 +325,6 @@ pub struct ParamSource {
     pub source: Source,
 }
 
-impl ParamSource {
-    /// Parameter `name` of joint `joint` (1-based) with its identified value and posterior
-    /// standard deviation `(value, std)` against its prior standard deviation `prior_std`
-    /// (SI): mostly prior where `std / prior_std` exceeds [`MOSTLY_PRIOR_RATIO`].
-    fn of(name: String, joint: usize, (value, std): (f64, f64), prior_std: f64) -> ParamSource {
-        let prior_ratio = std / prior_std;
-        ParamSource {
-            name,
-            joint,
-            value,
-            std,
-            prior_std,
-            prior_ratio,
-            source: if prior_ratio > MOSTLY_PRIOR_RATIO {
-                Source::Prior
-            } else {
-                Source::Data
-            },
-        }
-    }
-}
-
 /// What the logs determined: the directions of the base-parameter space where the posterior
 /// standard deviation is at most half the prior's (of how many), each parameter's source, and
 /// the joints whose parameters are mostly prior (an excitation of those joints would
@@ -425,10 +339,6 @@ pub struct Determination {
     pub parameters: Vec<ParamSource>,
     /// Joints (1-based) with a mostly-prior parameter.
     pub mostly_prior_joints: Vec<usize>,
-    /// Each copper-loss coefficient the model estimated against its prior (the drive file's,
-    /// else [`copper_default_std`]'s): `prior` where the logged torques of its joint stay too
-    /// small to see it (empty when the estimator has no copper loss).
-    pub copper: Vec<ParamSource>,
 }
 
 impl Determination {
@@ -438,15 +348,6 @@ impl Determination {
             .iter()
             .filter(|p| p.source == Source::Prior)
             .map(|p| p.name.as_str())
-            .collect()
-    }
-
-    /// Joints (1-based) whose copper-loss coefficient is mostly prior.
-    pub fn copper_from_prior(&self) -> Vec<usize> {
-        self.copper
-            .iter()
-            .filter(|p| p.source == Source::Prior)
-            .map(|p| p.joint)
             .collect()
     }
 
@@ -697,18 +598,13 @@ mod tests {
         assert!(err < 1e-6, "R^T R covariance - 1: {err}");
         // The copper-loss coefficients: the drive file's, with the relative width.
         for (c, j) in prior.copper.iter().zip(drive.joints()) {
-            let c = c.expect("every joint has a copper-loss prior");
+            let c = c.expect("the built-in drive gives every copper coefficient");
             assert_eq!(c.mean, j.copper_loss);
             assert!((c.std - 0.5 * j.copper_loss).abs() < 1e-15);
         }
-        // Without a drive file, zero with the width from the rating: 0.3 velocity / effort.
+        // Without a drive file, no copper-loss prior.
         let bare = Prior::new(&robot, None, &base, &PriorWidths::default()).unwrap();
-        for (c, j) in bare.copper.iter().zip(robot.joints()) {
-            let c = c.expect("every joint has a copper-loss prior");
-            assert_eq!(c.mean, 0.0);
-            let expected = COPPER_AT_LIMITS * j.limits.velocity / j.limits.effort.unwrap();
-            assert!((c.std - expected).abs() < 1e-15 * expected, "{c:?}");
-        }
+        assert!(bare.copper.iter().all(Option::is_none));
         for bad in [
             PriorWidths {
                 com_m: 0.0,

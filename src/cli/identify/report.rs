@@ -2,7 +2,7 @@
 //! undetermined (the meter below its lowest level, the friction law).
 
 use powertwin::identification::model::PowerModel;
-use powertwin::identification::prior::{COPPER_AT_LIMITS, Determination};
+use powertwin::identification::prior::Determination;
 
 /// Print what the logs leave undetermined of the friction law: below the least speed fitted
 /// (the share of the drive file's Stribeck rise the model takes there), and, for the
@@ -49,7 +49,6 @@ pub(super) fn report_determination(d: &Determination) {
         "determined by the data: {} of {} directions of the base-parameter space",
         d.directions, d.of
     );
-    report_copper(d);
     let prior = d.mostly_prior();
     if prior.is_empty() {
         eprintln!(
@@ -64,28 +63,6 @@ pub(super) fn report_determination(d: &Determination) {
     if let Some(advice) = d.advice() {
         eprintln!("to determine them: {advice}; the intervals carry the prior's width meanwhile");
     }
-}
-
-/// Print the copper-loss coefficients the logs' torques are too small to determine (their
-/// prior decides them, and its width is in the intervals).
-fn report_copper(d: &Determination) {
-    let joints = d.copper_from_prior();
-    if joints.is_empty() {
-        return;
-    }
-    let list: Vec<String> = joints.iter().map(usize::to_string).collect();
-    let priors: Vec<String> = (d.copper.iter())
-        .filter(|p| joints.contains(&p.joint))
-        .map(|p| format!("{:.3} +- {:.3}", p.value, p.prior_std))
-        .collect();
-    eprintln!(
-        "copper-loss coefficients undetermined by the data (posterior std > 0.5 x prior std) on \
-         joint(s) {}: from the prior ({} W/(N m)^2; the drive file's, else 0 with a width of \
-         {COPPER_AT_LIMITS} x velocity / effort limit), whose width the intervals carry; to determine them: \
-         runs with larger torques on those joints (a payload, faster moves)",
-        list.join(", "),
-        priors.join(", ")
-    );
 }
 
 /// Print the lowest level the logs show a clipped meter at, the floor under its reading
