@@ -7,7 +7,7 @@ use powertwin::Robot;
 use powertwin::dynamics::DriveTerms;
 use powertwin::identification::consistency::consistency;
 use powertwin::identification::consistent::{IdentifiedTwin, Options};
-use powertwin::identification::data::{Route, prepare};
+use powertwin::identification::data::Route;
 use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_logs};
 use powertwin::identification::lsq::Estimate;
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel, check_schema_version};
@@ -19,7 +19,7 @@ use powertwin::trajectory::limits::check_limits;
 use powertwin::trajectory::sampled::Sampled;
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
-use powertwin::validation::log_price::price_log;
+use powertwin::validation::log_price::price_measured;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::json;
@@ -319,10 +319,7 @@ impl PyModel {
     ) -> PyResult<Bound<'py, PyDict>> {
         let route = route(base_freq, harmonics, smoothing_window);
         let (robot, model) = (&self.robot, &self.model);
-        let lp = py.detach(|| {
-            let p = prepare(&log.log, route)?;
-            price_log(model, robot, &p, &log.log.source)
-        });
+        let lp = py.detach(|| price_measured(model, robot, &log.log, route).map(|(_, lp)| lp));
         let lp = lp.map_err(ctx(""))?;
         let d = PyDict::new(py);
         d.set_item("energy_J", lp.prediction.energy_j)?;

@@ -48,3 +48,17 @@ def test_library_errors_are_valueerrors(robot, tmp_path):
         pt.simulate(robot, {"t_s": t, "q_rad": np.zeros((11, 6))}, truth="perfect")
     with pytest.raises(ValueError, match="method"):
         pt.identify(robot, [pt.log_from_arrays(t, np.zeros((11, 6)), np.zeros(11))], method="magic")
+
+
+def test_predict_refuses_a_log_the_robot_cannot_have(robot, work):
+    # As `powertwin predict --log` does: positions in degrees, or a megawatt glitch.
+    model = pt.Model.load(work["dir"] / "cli_model.json", robot)
+    t = np.linspace(0, 5, 51)
+    q = np.zeros((51, 6))
+    q[:, 1] = np.linspace(0.0, 40.0, 51)  # joint 2 in degrees
+    with pytest.raises(ValueError, match="degrees"):
+        model.predict(pt.log_from_arrays(t, q, np.full(51, 300.0)))
+    p = np.full(51, 300.0)
+    p[12] = 1e6
+    with pytest.raises(ValueError, match="glitch"):
+        model.predict(pt.log_from_arrays(t, np.zeros((51, 6)), p))

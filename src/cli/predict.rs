@@ -11,13 +11,13 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use powertwin::Robot;
 use powertwin::dataset::Dataset;
-use powertwin::identification::data::{Prepared, prepare};
+use powertwin::identification::data::Prepared;
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel};
 use powertwin::identification::plan::{price, price_scenario, read_plan, scenario_cell};
 use powertwin::io::write_atomic;
 use powertwin::model::payload::PayloadEvent;
 use powertwin::trajectory::task::Scenario;
-use powertwin::validation::log_price::{LogPrice, price_log};
+use powertwin::validation::log_price::{LogPrice, price_measured};
 use serde_json::json;
 
 use super::identify::{PayloadArgs, RouteArgs, gather};
@@ -114,8 +114,8 @@ pub fn run_predict(args: &PredictArgs) -> Result<ExitCode> {
     let mut rows: Vec<LogPrice> = Vec::new();
     let mut prepared: Vec<Prepared> = Vec::new();
     for log in &logs {
-        let p = prepare(log, args.route.route())?;
-        rows.push(price_log(&model, &robot, &p, &log.source)?);
+        let (p, row) = price_measured(&model, &robot, log, args.route.route())?;
+        rows.push(row);
         prepared.push(p);
     }
     if let Some(path) = &args.power_out {

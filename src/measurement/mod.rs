@@ -149,16 +149,13 @@ impl Log {
 
     /// Errors where a joint is more than a full turn beyond its position limits: no joint
     /// angle within the limits, logged with a turn added or taken away, lies there, so the
-    /// positions are in another unit (degrees) or of another joint. Joints without finite
-    /// limits are not checked.
+    /// positions are in another unit (degrees) or of another joint. A continuous joint's
+    /// infinite limit admits every position.
     pub fn check_positions(&self, robot: &Robot) -> Result<()> {
         const TURN: f64 = std::f64::consts::TAU;
         for (i, (j, q)) in robot.joints().iter().zip(&self.q_rad).enumerate() {
             let (lo, hi) = (j.limits.lower, j.limits.upper);
-            if !(lo.is_finite() && hi.is_finite()) {
-                continue;
-            }
-            if let Some(k) = q.iter().position(|&v| v < lo - TURN || v > hi + TURN) {
+            if let Some(k) = q.iter().position(|&v| !j.limits.admits(v, TURN)) {
                 return Err(Error::InvalidInput(format!(
                     "{}: joint {} ('{}') at {:.4} rad at t = {:.3} s, more than a turn beyond \
                      its limits [{lo:.4}, {hi:.4}] rad: are the positions in degrees (a column \

@@ -40,6 +40,14 @@ pub struct JointLimits {
     pub effort: Option<f64>,
 }
 
+impl JointLimits {
+    /// True when `q` (rad) lies within the position limits widened by `margin` rad on each
+    /// side (false for NaN).
+    pub fn admits(&self, q: f64, margin: f64) -> bool {
+        q >= self.lower - margin && q <= self.upper + margin
+    }
+}
+
 /// Joint friction as written in the URDF `<dynamics>` element (estimates; the drive file may
 /// override them).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -328,7 +336,7 @@ impl Robot {
     pub fn check_position_limits(&self, q: &[f64]) -> Result<()> {
         self.check_len(q, "q")?;
         for (j, &qi) in self.joints.iter().zip(q) {
-            if qi < j.limits.lower || qi > j.limits.upper {
+            if !j.limits.admits(qi, 0.0) {
                 return Err(Error::JointLimit(format!(
                     "joint '{}' at {:.6} rad is outside [{:.6}, {:.6}] rad",
                     j.name, qi, j.limits.lower, j.limits.upper

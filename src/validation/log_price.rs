@@ -4,10 +4,11 @@
 //! it scores a model on a user's own logs.
 
 use crate::error::Result;
-use crate::identification::data::{Prepared, power_sample_nodes, power_times};
+use crate::identification::data::{Prepared, Route, power_sample_nodes, power_times, prepare};
 use crate::identification::energy::window_energies;
 use crate::identification::model::{DATASHEET_EFFICIENCY, PowerModel, Prediction};
 use crate::identification::plan::price;
+use crate::measurement::Log;
 use crate::model::Robot;
 
 /// A log's prediction against its measurement.
@@ -46,6 +47,22 @@ impl LogPrice {
     pub fn error_pct(&self) -> f64 {
         100.0 * (self.prediction.energy_j - self.measured_j) / self.measured_j
     }
+}
+
+/// Price a user's `log` with `model` on `robot`, as `powertwin predict --log` does: errors
+/// unless the log is of `robot` ([`Log::check_robot`]: joint count, positions it can reach,
+/// power it can draw), then prepares it along `route` and prices it ([`price_log`]). Returns
+/// the prepared log too (for plots of the model along it).
+pub fn price_measured(
+    model: &PowerModel,
+    robot: &Robot,
+    log: &Log,
+    route: Route,
+) -> Result<(Prepared, LogPrice)> {
+    log.check_robot(robot)?;
+    let p = prepare(log, route)?;
+    let price = price_log(model, robot, &p, &log.source)?;
+    Ok((p, price))
 }
 
 /// Price the prepared log `p` (named `source`) with `model` on `robot`, the known payloads of

@@ -126,7 +126,7 @@ impl RouteArgs {
 pub struct PayloadArgs {
     /// Payload at the flange throughout: a built-in name (liu2018_tool, liu2018_load_1kg,
     /// liu2018_load_2kg, liu2018_load_4kg: the IRB 1200's of Liu et al. 2018) or a payload TOML
-    /// file; repeat to combine (--payload liu2018_tool --payload liu2018_load_2kg).
+    /// file; repeat or join with '+' to combine (--payload liu2018_tool+liu2018_load_2kg).
     #[arg(long, value_name = "NAME|PATH")]
     payload: Vec<String>,
     /// Payload timeline TOML (`[[event]] t_s = .., payload = "tool+load_2kg"` or "none"),
@@ -335,18 +335,8 @@ pub(super) fn gather(
     if data.is_empty() {
         let mut logs = load_logs(log_args)?;
         let events = payloads.events()?;
-        for log in &mut logs {
-            if log.dof() != robot.dof() {
-                bail!(
-                    "{}: {} joint columns, robot '{}' has {} joints",
-                    log.source,
-                    log.dof(),
-                    robot.name(),
-                    robot.dof()
-                );
-            }
-            log.check_robot(robot)?;
-            if let Some(e) = &events {
+        if let Some(e) = &events {
+            for log in &mut logs {
                 log.payloads = e.clone();
             }
         }
@@ -360,6 +350,11 @@ pub(super) fn gather(
 pub fn run_identify(args: &IdentifyArgs) -> Result<ExitCode> {
     let robot = args.robot.load()?;
     let logs = gather(&args.data, &args.logs, &robot, &args.payloads)?;
+    // One error for every method, before the held-out check (the fitted methods' library
+    // pipeline checks again, for its other callers).
+    for log in &logs {
+        log.check_robot(&robot)?;
+    }
     let fitted = matches!(
         args.method,
         Method::Auto | Method::Total | Method::Pmsm | Method::Gear
