@@ -212,6 +212,21 @@ fn overloads_are_refused_and_failed_runs_flagged() {
         err.contains("8 kg") && err.contains("rated payload of 7 kg"),
         "{err}"
     );
+    // Joined with '+', as identify and predict take them: the same 8 kg.
+    let (code, _, err) = powertwin(&[
+        "simulate",
+        "--payload",
+        "load_4kg+load_4kg",
+        "--trajectory",
+        "unused.csv",
+        "--out",
+        &s(&tmp("never")),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("8 kg") && err.contains("rated payload of 7 kg"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -174,8 +174,8 @@ pub struct TwinArgs {
     drive: Option<PathBuf>,
     /// Payload attached to the flange throughout: a built-in name (liu2018_tool,
     /// liu2018_load_1kg, liu2018_load_2kg, liu2018_load_4kg: the IRB 1200's, Liu et al. 2018;
-    /// the old names tool, load_1kg, ... are accepted) or a payload TOML file; repeat to combine
-    /// (e.g. --payload liu2018_tool --payload liu2018_load_2kg).
+    /// the old names tool, load_1kg, ... are accepted) or a payload TOML file; repeat or join
+    /// with '+' to combine (e.g. --payload liu2018_tool+liu2018_load_2kg).
     #[arg(long, value_name = "NAME|PATH")]
     payload: Vec<String>,
     /// Physics step (torque held over it), s.
@@ -268,12 +268,12 @@ impl TwinArgs {
         };
         let mut payload: Option<Payload> = None;
         for p in &self.payload {
-            let one = if std::path::Path::new(p).exists() {
-                Payload::from_file(std::path::Path::new(p))?
-            } else {
-                warn_foreign_payload(p, &robot);
-                builtin::payload(p)?
-            };
+            for part in p.split('+').map(str::trim) {
+                if !std::path::Path::new(part).exists() {
+                    warn_foreign_payload(part, &robot);
+                }
+            }
+            let one = powertwin::model::payload::resolve(p, std::path::Path::new("."))?;
             payload = Some(match payload {
                 Some(acc) => acc.combined(&one),
                 None => one,
