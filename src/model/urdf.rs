@@ -346,35 +346,39 @@ struct Merged {
     flange: Flange,
 }
 
-/// Merge the links of every body, expressed in the body's MDH frame; refuse a moved link
-/// without `<inertial>`.
-fn merge_bodies(tree: &Tree, walk: &Walk, frames: &[Isometry3<f64>]) -> Result<Merged> {
-    let (links, root) = (&tree.links, tree.root);
-    let (visits, moving, moving_joint_world) =
-        (&walk.visits, &walk.moving, &walk.moving_joint_world);
-    let frame_of = |body: usize| frame_of(frames, body);
-    let n = moving.len();
-    let mut bodies: Vec<Link> = (0..=n)
+/// The bodies (0 = base, then one per moving joint) before their links are merged: names,
+/// the URDF frame in the body's MDH frame, no mass and no shapes.
+fn empty_bodies(tree: &Tree, walk: &Walk, frames: &[Isometry3<f64>]) -> Vec<Link> {
+    let moving = &walk.moving;
+    (0..=moving.len())
         .map(|b| {
-            let name = if b == 0 {
-                root
+            let (name, joint_world) = if b == 0 {
+                (tree.root, Isometry3::identity())
             } else {
-                moving[b - 1].child.link.as_str()
+                (
+                    moving[b - 1].child.link.as_str(),
+                    walk.moving_joint_world[b - 1],
+                )
             };
             Link {
                 name: name.to_string(),
                 inertia: RigidInertia::zero(),
-                urdf_pose: frame_of(b).inverse()
-                    * if b == 0 {
-                        Isometry3::identity()
-                    } else {
-                        moving_joint_world[b - 1]
-                    },
+                urdf_pose: frame_of(frames, b).inverse() * joint_world,
                 visuals: Vec::new(),
                 collisions: Vec::new(),
             }
         })
-        .collect();
+        .collect()
+}
+
+/// Merge the links of every body, expressed in the body's MDH frame; refuse a moved link
+/// without `<inertial>`.
+fn merge_bodies(tree: &Tree, walk: &Walk, frames: &[Isometry3<f64>]) -> Result<Merged> {
+    let links = &tree.links;
+    let (visits, moving) = (&walk.visits, &walk.moving);
+    let frame_of = |body: usize| frame_of(frames, body);
+    let n = moving.len();
+    let mut bodies = empty_bodies(tree, walk, frames);
     // The best flange candidate so far: rank (lower is better) and the flange.
     let mut flange: Option<(u8, Flange)> = None;
     for v in visits {

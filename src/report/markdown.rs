@@ -3,7 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::report::results::Results;
+use crate::report::results::{ModelInfo, Results};
 
 /// Energy errors of the paper's Table 3 (steps 1..6), %: the reference the twin is compared
 /// with (Liu et al. 2018; `docs/design/irb1200-data.md` 5.1).
@@ -69,18 +69,7 @@ fn heldout_intro(w: &mut String, r: &Results) {
         m.design.rounds,
         m.design.stacked_cond,
         m.design.wall_s,
-        m.standby.as_ref().map_or(String::new(), |s| format!(
-            ", and a rest of the unloaded robot at the pose of least gravity torque ({} rad; \
-             the URDF's gravity torques at most {:.2} N m), whose power pins the standby",
-            s.pose_rad
-                .iter()
-                .map(|q| format!("{q:.2}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            s.gravity_torque_nm
-                .iter()
-                .fold(0.0_f64, |a, t| a.max(t.abs()))
-        )),
+        standby_clause(m),
         m.cv.iter()
             .map(|c| format!("{} {:.3} W", c.estimator.name(), c.mean_power_rms_w))
             .collect::<Vec<_>>()
@@ -114,6 +103,24 @@ fn heldout_intro(w: &mut String, r: &Results) {
         h.motions.len(),
         h.seed
     );
+}
+
+/// The identification set's standby rest, when it has one, as a clause of the intro.
+fn standby_clause(m: &ModelInfo) -> String {
+    m.standby.as_ref().map_or(String::new(), |s| {
+        format!(
+            ", and a rest of the unloaded robot at the pose of least gravity torque ({} rad; \
+             the URDF's gravity torques at most {:.2} N m), whose power pins the standby",
+            s.pose_rad
+                .iter()
+                .map(|q| format!("{q:.2}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            s.gravity_torque_nm
+                .iter()
+                .fold(0.0_f64, |a, t| a.max(t.abs()))
+        )
+    })
 }
 
 /// The benchmark's error statistics per prediction, and the power RMSE.
@@ -496,6 +503,27 @@ fn figure14(w: &mut String, r: &Results) {
             "flag",
         ],
     );
+    figure14_cells(w, r);
+    let _ = writeln!(w);
+    figure14_optima(w, r);
+    let front: Vec<String> = r
+        .sweep
+        .pareto
+        .iter()
+        .map(|&k| {
+            let c = &r.sweep.cells[k];
+            format!("{} kg @ {} m/s", c.load_kg, c.speed_m_s)
+        })
+        .collect();
+    let _ = writeln!(
+        w,
+        "\nEnergy / cycle-time Pareto front per load: {}.",
+        front.join(", ")
+    );
+}
+
+/// Figure 14's rows, one per sweep cell.
+fn figure14_cells(w: &mut String, r: &Results) {
     for c in &r.sweep.cells {
         let _ = writeln!(
             w,
@@ -512,7 +540,10 @@ fn figure14(w: &mut String, r: &Results) {
                 .map_or("-".into(), |why| format!("**flagged**: {why}"))
         );
     }
-    let _ = writeln!(w);
+}
+
+/// The optimal speed per load: the sweep's and the model's.
+fn figure14_optima(w: &mut String, r: &Results) {
     header(
         w,
         &[
@@ -544,20 +575,6 @@ fn figure14(w: &mut String, r: &Results) {
             if o.interior { "yes" } else { "no" }
         );
     }
-    let front: Vec<String> = r
-        .sweep
-        .pareto
-        .iter()
-        .map(|&k| {
-            let c = &r.sweep.cells[k];
-            format!("{} kg @ {} m/s", c.load_kg, c.speed_m_s)
-        })
-        .collect();
-    let _ = writeln!(
-        w,
-        "\nEnergy / cycle-time Pareto front per load: {}.",
-        front.join(", ")
-    );
 }
 
 /// The wall time of every stage.
