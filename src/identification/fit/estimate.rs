@@ -27,8 +27,8 @@ const WLS_ITERATIONS: usize = 2;
 /// weighted by `weighting` (iterated: each weighting from the previous fit's residuals).
 /// `template` gives the robot's base-parameter set (its values are ignored). The covariance
 /// is the weighted one (the model's, where a nonlinear estimator holds loss coefficients at
-/// zero, the free fit's); `residual_rms` stays the unweighted RMS in W of the arm's power (not
-/// the motors').
+/// zero, linearised at the held fit with those coefficients free); `residual_rms` stays the
+/// unweighted RMS in W of the arm's power (not the motors').
 pub fn fit(
     template: &PowerModel,
     s: &Samples,
@@ -69,7 +69,7 @@ fn fit_inner(
     // from the linear solution. From the linear solution every round, a bus signal's fit
     // (the clip makes its cost kinked) crawls tens of iterations back to where the last
     // round ended.
-    let run = |zero_loss: &[bool], start: Option<&[f64]>| -> Result<Fit> {
+    let run = |zero_loss: &[bool], start: Option<&[f64]>| -> Result<(Fit, Vec<f64>)> {
         let mut weights = vec![1.0; rows.len()];
         let rounds = if weighting == Weighting::None {
             0
@@ -88,10 +88,10 @@ fn fit_inner(
             weights = variance_weights(s, &rows, &z, weighting);
             start = Some(f.estimate.values);
         }
-        one(&weights, start.as_deref(), full)
+        Ok((one(&weights, start.as_deref(), full)?, weights))
     };
     let layout = s.layout();
-    let f = run(&vec![false; layout.len()], None)?;
+    let (f, _) = run(&vec![false; layout.len()], None)?;
     if estimator == Estimator::Total || !full {
         return Ok(f);
     }
@@ -114,15 +114,45 @@ fn fit_inner(
         return Ok(f);
     }
     // From the free fit, the weak coefficients at zero.
-    let mut held = run(&weak, Some(&f.estimate.values))?;
-    // Held at zero is an estimate, not knowledge: the model predicts with the free fit's
-    // covariance, in which a held coefficient keeps its spread and its trade against the
-    // standby and the others. A motion like the data then gets about the interval it had,
-    // and one whose torques on that joint go beyond the data's (a payload the data never
-    // carried) a wider one, not a narrow one around the missing copper loss. (The fit's own
-    // covariance keeps zero rows there: they mark the parameters it held.)
-    held.model.covariance = f.model.covariance;
+    let (mut held, weights) = run(&weak, Some(&f.estimate.values))?;
+    // Held at zero is an estimate, not knowledge: the model predicts with a covariance in
+    // which a held coefficient keeps its spread and its trade against the standby and the
+    // others, so a motion like the data gets about the interval it had, and one whose torques
+    // on that joint go beyond the data's (a payload the data never carried) a wider one, not
+    // a narrow one around the missing copper loss. That covariance is the model's own,
+    // linearised at the parameters it predicts with, every loss coefficient free
+    // ([`covariance_with_held_free`]). The free fit's, taken where a coefficient ran off along
+    // a direction the data do not see (a wrist's growing while its fitted torque shrinks),
+    // put millions of W/(N m)^2 of spread into every interval
+    // (docs/experiments.md#copper-losses-without-a-drive-file). (The fit's own covariance
+    // keeps zero rows there: they mark the parameters it held.)
+    let covariance = covariance_with_held_free(template, s, estimator, &rows, &weights, &held)?;
+    let z = DVector::from_column_slice(&held.estimate.values);
+    held.model.covariance = fitted_model(template, s, estimator, &z, &covariance).covariance;
     Ok(held)
+}
+
+/// The covariance of `held`, a fit of `estimator` that held some loss coefficients at zero
+/// on the samples `rows` with its last round's `weights`: linearised at its own parameters
+/// with every loss coefficient the estimator fits free (a held one's column is its loss at
+/// the model's torques, `tau_i^2` or `|dq_i tau_i|`), with the prior (if any) weighed by the
+/// power model's residual variance there. A held coefficient keeps the spread the data leave
+/// it and its trade against the others, taken at the model that predicts.
+fn covariance_with_held_free(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    rows: &[usize],
+    weights: &[f64],
+    held: &Fit,
+) -> Result<DMatrix<f64>> {
+    let z = DVector::from_column_slice(&held.estimate.values);
+    let free = free_params(s, estimator, &vec![false; s.params()]);
+    let moved = free.iter().filter(|f| **f).count();
+    let z_prior = s.z_prior();
+    let prior = (z_prior.as_ref()).map(|pr| (pr, residual_variance(s, rows, weights, &z, moved)));
+    let (_, covariance) = lm_statistics(template, s, rows, weights, Some(&free), prior, &z)?;
+    Ok(covariance)
 }
 
 /// The linear problem without copper loss and gear friction on the samples `rows` (weights
