@@ -241,12 +241,18 @@ impl Scenario {
     /// the errors of [`linear_move::plan`] (unreachable via points and joint-limit problems
     /// name the via point or the segment).
     pub fn plan(&self, robot: &Robot, speed_m_s: f64, load_kg: f64) -> Result<TaskRun> {
+        self.run_of(self.plan_speed(robot, speed_m_s)?, load_kg)
+    }
+
+    /// The joint motion of [`Scenario::plan`] at `speed_m_s` (m/s), which does not depend on
+    /// the load: plan it once for every load level ([`Scenario::run_of`]).
+    pub fn plan_speed(&self, robot: &Robot, speed_m_s: f64) -> Result<LinearMotion> {
         if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
             return Err(Error::InvalidInput(format!(
                 "TCP speed {speed_m_s} m/s must be finite and positive"
             )));
         }
-        self.plan_timed(robot, &self.uniform(speed_m_s), load_kg)
+        self.plan_motion(robot, &self.uniform(speed_m_s))
     }
 
     /// The timing of [`Scenario::plan`]: `speed_m_s` (m/s), the scenario's acceleration bound
@@ -270,7 +276,12 @@ impl Scenario {
         timing: &[SegmentTiming],
         load_kg: f64,
     ) -> Result<TaskRun> {
-        let motion = self.plan_motion(robot, timing)?;
+        self.run_of(self.plan_motion(robot, timing)?, load_kg)
+    }
+
+    /// The task run of `motion` (a joint motion of this task, [`Scenario::plan_motion`]) at
+    /// load level `load_kg` (kg): its payload events and via-point arrivals.
+    pub fn run_of(&self, motion: LinearMotion, load_kg: f64) -> Result<TaskRun> {
         let events = self.payload_events(&motion.arrivals_s, load_kg)?;
         let via = self
             .via_poses()

@@ -16,7 +16,7 @@ use crate::identification::plan::PLAN_DT_S;
 use crate::model::Robot;
 use crate::optimize::segment::Task;
 use crate::optimize::speed::{self, SpeedOptimum};
-use crate::trajectory::linear_move::SlowedSegment;
+use crate::trajectory::linear_move::{LinearMotion, SlowedSegment};
 use crate::trajectory::task::{Scenario, TaskRun};
 use crate::twin::TorqueLimitHit;
 use crate::validation::rig::{Progress, Rig};
@@ -235,8 +235,9 @@ pub struct Planned {
     pub plan: TaskRun,
 }
 
-/// Plan every cell of the scenario's grid (in parallel; load-major), so that an unreachable
-/// via point or a speed the joints cannot follow is reported before anything runs.
+/// Plan every cell of the scenario's grid (load-major), so that an unreachable via point or
+/// a speed the joints cannot follow is reported before anything runs. The joint motion does
+/// not depend on the load: each speed is planned once (in parallel) and serves every load.
 pub fn plan(robot: &Robot, scenario: &Scenario) -> Result<Vec<Planned>> {
     let (speeds, loads) = (&scenario.sweep.speeds_m_s, &scenario.sweep.loads_kg);
     if speeds.is_empty() || loads.is_empty() {
@@ -244,21 +245,28 @@ pub fn plan(robot: &Robot, scenario: &Scenario) -> Result<Vec<Planned>> {
             "the sweep needs at least one speed and one load".into(),
         ));
     }
-    let grid: Vec<(f64, f64)> = loads
-        .iter()
-        .flat_map(|&l| speeds.iter().map(move |&v| (v, l)))
-        .collect();
-    grid.par_iter()
-        .map(|&(speed, load)| {
-            let plan = scenario.plan(robot, speed, load).map_err(|e| {
-                e.context(&format!(
-                    "scenario '{}' at {speed} m/s with load {load} kg",
-                    scenario.name
-                ))
-            })?;
-            Ok(Planned { speed, load, plan })
+    let context = |speed: f64, load: Option<f64>| {
+        let load = load.map_or(String::new(), |l| format!(" with load {l} kg"));
+        format!("scenario '{}' at {speed} m/s{load}", scenario.name)
+    };
+    let motions: Vec<LinearMotion> = speeds
+        .par_iter()
+        .map(|&speed| {
+            scenario
+                .plan_speed(robot, speed)
+                .map_err(|e| e.context(&context(speed, None)))
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    let mut grid = Vec::with_capacity(loads.len() * speeds.len());
+    for &load in loads {
+        for (&speed, motion) in speeds.iter().zip(&motions) {
+            let plan = scenario
+                .run_of(motion.clone(), load)
+                .map_err(|e| e.context(&context(speed, Some(load))))?;
+            grid.push(Planned { speed, load, plan });
+        }
+    }
+    Ok(grid)
 }
 
 /// A model to predict with: identified without payload; the tool and loads are added from
