@@ -195,38 +195,22 @@ fn overloads_are_refused_and_failed_runs_flagged() {
         flagged_out.join("sweep.json").exists(),
         "outputs are written"
     );
-    // simulate checks --payload the same way (before reading the trajectory).
-    let (code, _, err) = powertwin(&[
-        "simulate",
-        "--payload",
-        "load_4kg",
-        "--payload",
-        "load_4kg",
-        "--trajectory",
-        "unused.csv",
-        "--out",
-        &s(&tmp("never")),
-    ]);
-    assert_eq!(code, 1);
-    assert!(
-        err.contains("8 kg") && err.contains("rated payload of 7 kg"),
-        "{err}"
-    );
-    // Joined with '+', as identify and predict take them: the same 8 kg.
-    let (code, _, err) = powertwin(&[
-        "simulate",
-        "--payload",
-        "load_4kg+load_4kg",
-        "--trajectory",
-        "unused.csv",
-        "--out",
-        &s(&tmp("never")),
-    ]);
-    assert_eq!(code, 1);
-    assert!(
-        err.contains("8 kg") && err.contains("rated payload of 7 kg"),
-        "{err}"
-    );
+    // simulate checks --payload the same way (before reading the trajectory), repeated or
+    // joined with '+' as identify and predict take them.
+    let never = s(&tmp("never"));
+    for payloads in [
+        &["--payload", "load_4kg", "--payload", "load_4kg"][..],
+        &["--payload", "load_4kg+load_4kg"][..],
+    ] {
+        let mut args = vec!["simulate", "--trajectory", "unused.csv", "--out", &never];
+        args.extend_from_slice(payloads);
+        let (code, _, err) = powertwin(&args);
+        assert_eq!(code, 1);
+        assert!(
+            err.contains("8 kg") && err.contains("rated payload of 7 kg"),
+            "{err}"
+        );
+    }
 }
 
 #[test]
