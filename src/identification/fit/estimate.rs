@@ -36,7 +36,7 @@ pub fn fit(
     weighting: Weighting,
     use_sample: &dyn Fn(usize) -> bool,
 ) -> Result<Fit> {
-    fit_inner(template, s, estimator, weighting, use_sample, true)
+    fit_inner(template, s, estimator, weighting, use_sample, true, None)
 }
 
 /// [`fit`] with every loss coefficient free (none held at zero for want of significance)
@@ -48,10 +48,24 @@ pub(super) fn fit_free(
     estimator: Estimator,
     weighting: Weighting,
 ) -> Result<Fit> {
-    fit_inner(template, s, estimator, weighting, &|_| true, false)
+    fit_free_from(template, s, estimator, weighting, None)
 }
 
-/// [`fit`] when `full`, else [`fit_free`].
+/// [`fit_free`] whose Levenberg–Marquardt starts from `start` (values in the fit's layout, as
+/// [`Fit::estimate`] holds them) instead of the linear solution: the least cost on the branch
+/// of another fit of nearly the same samples.
+pub(super) fn fit_free_from(
+    template: &PowerModel,
+    s: &Samples,
+    estimator: Estimator,
+    weighting: Weighting,
+    start: Option<&[f64]>,
+) -> Result<Fit> {
+    fit_inner(template, s, estimator, weighting, &|_| true, false, start)
+}
+
+/// [`fit`] when `full`, else [`fit_free`]; Levenberg–Marquardt from `start` (`None`: the
+/// linear solution).
 fn fit_inner(
     template: &PowerModel,
     s: &Samples,
@@ -59,6 +73,7 @@ fn fit_inner(
     weighting: Weighting,
     use_sample: &dyn Fn(usize) -> bool,
     full: bool,
+    start: Option<&[f64]>,
 ) -> Result<Fit> {
     let s = &*s.for_estimator(estimator);
     let rows: Vec<usize> = (0..s.len())
@@ -91,7 +106,7 @@ fn fit_inner(
         Ok((one(&weights, start.as_deref(), full)?, weights))
     };
     let layout = s.layout();
-    let (f, _) = run(&vec![false; layout.len()], None)?;
+    let (f, _) = run(&vec![false; layout.len()], start)?;
     if estimator == Estimator::Total || !full {
         return Ok(f);
     }

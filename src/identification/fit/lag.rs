@@ -18,7 +18,7 @@
 //! with loads its residual is dominated by the copper loss it lacks and the lag it finds is a
 //! third of the true one (docs/experiments.md#power-lag-in-the-fit).
 
-use super::estimate::fit_free;
+use super::estimate::fit_free_from;
 use super::samples::{Samples, fitted};
 use super::{Estimator, FitOptions, Weighting};
 use crate::error::Result;
@@ -100,7 +100,8 @@ pub(super) fn find_lag(
     // at that lag and at zero, `N ln(RSS_0 / RSS_L)`, above the 99 % point of chi-square
     // with one degree of freedom. A gentle motion's power hardly depends on the lag; its
     // residual is flat and the least of it noise.
-    let ratio = trials.rows as f64 * 2.0 * (trials.cost(0.0)? / trials.cost(lag)?).ln();
+    let (none, at_lag) = trials.on_one_branch(0.0, lag)?;
+    let ratio = trials.rows as f64 * 2.0 * (none / at_lag).ln();
     Ok(if ratio > LAG_EVIDENCE { lag } else { 0.0 })
 }
 
@@ -113,13 +114,26 @@ struct Trials<'a> {
     opts: &'a FitOptions,
     /// Observations fitted on (the logs' samples one after another); `None`: all of them.
     keep: Option<Vec<bool>>,
-    /// (lag, residual RMS) of the lags fitted on `keep`.
-    tried: Vec<(f64, f64)>,
+    /// The lags fitted on `keep` from the linear solution, in order, and their fits.
+    tried: Vec<(f64, Fitted)>,
     /// Observations the last fit used.
     rows: usize,
     /// Whether the fits add the prior: decided at the first fit on `keep`, since the
     /// regressor's rank does not depend on the lag.
     with_prior: bool,
+}
+
+/// What [`Trials::fit`] found at one lag.
+struct Fitted {
+    /// Residual RMS of the arm's power, W.
+    cost: f64,
+    /// Observations fitted on.
+    rows: usize,
+    /// Whether the fit took the prior.
+    with_prior: bool,
+    /// The fit's values (empty where it could not fit): a start on its branch for another
+    /// lag's fit.
+    values: Vec<f64>,
 }
 
 impl Trials<'_> {
@@ -187,11 +201,33 @@ impl Trials<'_> {
 
     /// Residual RMS (W) of the PMSM fit at `lag` (s).
     fn cost(&mut self, lag: f64) -> Result<f64> {
-        if let Some(&(_, c)) = self.tried.iter().find(|(l, _)| *l == lag) {
-            return Ok(c);
+        if let Some((_, f)) = self.tried.iter().find(|(l, _)| *l == lag) {
+            return Ok(f.cost);
         }
-        let fitted = self.fit(lag)?;
+        let fitted = self.fit(lag, None)?;
         Ok(self.record(lag, fitted))
+    }
+
+    /// The costs at lags `a` and `b` on one branch of the fit's least cost each: each lag
+    /// fitted again from the other's solution, the lesser of its two costs kept. The PMSM
+    /// fit is not convex (the copper coefficients' bound, parameters the logs barely see), and
+    /// fits of the same samples a millisecond apart can land from the linear solution on
+    /// branches whose costs differ by more than the lag explains: the cost jumps between them
+    /// (docs/experiments.md#a-spurious-power-lag). Compared across a jump, a lag the data do
+    /// not show passes for evidence.
+    fn on_one_branch(&mut self, a: f64, b: f64) -> Result<(f64, f64)> {
+        let (ca, cb) = (self.cost(a)?, self.cost(b)?);
+        let values = |l: f64| {
+            self.tried
+                .iter()
+                .find(|(k, f)| *k == l && !f.values.is_empty())
+                .map(|(_, f)| f.values.as_slice())
+        };
+        let (va, vb) = (values(a), values(b));
+        let (a_from_b, b_from_a) = rayon::join(|| self.fit(a, vb), || self.fit(b, va));
+        // A start the fit cannot continue from leaves the cost from the linear solution.
+        let least = |c: f64, other: Result<Fitted>| other.map_or(c, |f| c.min(f.cost));
+        Ok((least(ca, a_from_b), least(cb, b_from_a)))
     }
 
     /// [`Trials::cost`] of each of `lags`, in order. The first lag not yet fitted is fitted
@@ -207,7 +243,7 @@ impl Trials<'_> {
         let this = &*self;
         let fits = rest
             .par_iter()
-            .map(|&l| this.fit(l))
+            .map(|&l| this.fit(l, None))
             .collect::<Result<Vec<_>>>()?;
         for (l, fitted) in rest.into_iter().zip(fits) {
             self.record(l, fitted);
@@ -216,17 +252,19 @@ impl Trials<'_> {
     }
 
     /// Record the fit of `lag` ([`Trials::fit`]); returns its cost.
-    fn record(&mut self, lag: f64, (c, rows, with_prior): (f64, usize, bool)) -> f64 {
-        self.rows = rows;
-        self.with_prior = with_prior;
-        self.tried.push((lag, c));
-        c
+    fn record(&mut self, lag: f64, fitted: Fitted) -> f64 {
+        self.rows = fitted.rows;
+        self.with_prior = fitted.with_prior;
+        let cost = fitted.cost;
+        self.tried.push((lag, fitted));
+        cost
     }
 
-    /// The PMSM fit at `lag`: its residual RMS (W), the observations it used, and whether it
-    /// took the prior (the first fit on `keep` takes it only where the logs cannot be fitted
-    /// without it; the later fits follow that first one).
-    fn fit(&self, lag: f64) -> Result<(f64, usize, bool)> {
+    /// The PMSM fit at `lag` from `start` (`None`: the linear solution): its residual RMS (W),
+    /// the observations it used, whether it took the prior (the first fit on `keep` takes it
+    /// only where the logs cannot be fitted without it; the later fits follow that first
+    /// one), and its values.
+    fn fit(&self, lag: f64, start: Option<&[f64]>) -> Result<Fitted> {
         let prepared = self.prepare(lag)?;
         let mut samples = Samples::new(
             self.robot,
@@ -241,27 +279,42 @@ impl Trials<'_> {
             samples.keep_only(keep)?;
         }
         let rows = (0..samples.len()).filter(|&m| samples.fit[m]).count();
-        let fitted = |samples: &Samples| -> Result<f64> {
-            let f = fit_free(self.template, samples, Estimator::Pmsm, Weighting::None)?;
-            Ok(f.estimate.residual_rms)
+        let fitted = |samples: &Samples, with_prior: bool| -> Result<Fitted> {
+            let f = fit_free_from(
+                self.template,
+                samples,
+                Estimator::Pmsm,
+                Weighting::None,
+                start,
+            )?;
+            Ok(Fitted {
+                cost: f.estimate.residual_rms,
+                rows,
+                with_prior,
+                values: f.estimate.values,
+            })
         };
         // The prior only where the logs cannot be fitted without it: a prior centred on
         // files that are wrong (a copper coefficient off by half) tilts every trial lag's
         // residual, and the least of them moves (a third of a sample period on the family of
         // truths, docs/experiments.md#the-drive-files-copper-as-a-prior).
         if !self.with_prior {
-            match (fitted(&samples), &self.opts.prior) {
-                (Ok(c), _) => return Ok((c, rows, false)),
+            match (fitted(&samples, false), &self.opts.prior) {
+                (Ok(f), _) => return Ok(f),
                 (Err(_), Some(_)) if self.rows == 0 => {}
                 (Err(e), _) => return Err(e),
             }
         }
         // Here only with a prior: already taken, or needed by the first fit.
-        let c = match &self.opts.prior {
-            Some(prior) => fitted(&samples.with_prior(prior.clone())?)?,
-            None => f64::INFINITY,
-        };
-        Ok((c, rows, true))
+        match &self.opts.prior {
+            Some(prior) => fitted(&samples.with_prior(prior.clone())?, true),
+            None => Ok(Fitted {
+                cost: f64::INFINITY,
+                rows,
+                with_prior: true,
+                values: Vec::new(),
+            }),
+        }
     }
 }
 
