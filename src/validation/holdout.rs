@@ -1,7 +1,8 @@
 //! Is my model good? A held-out check of an identification on the user's own logs
 //! (`identify --holdout K`): leave out every K-th run (or, with fewer than four runs, every
-//! K-th rest-to-rest move), identify on the rest with the same options, and predict what was
-//! left out as `predict` would ([`crate::validation::log_price`]).
+//! K-th rest-to-rest move; along the Fourier route always runs), identify on the rest with
+//! the same options, and predict what was left out as `predict` would
+//! ([`crate::validation::log_price`]).
 //!
 //! Unlike the rest of [`crate::validation`], nothing here uses a twin's truth: the figures are
 //! out of sample on the user's own robot, measured energy against predicted, and say how well
@@ -19,8 +20,13 @@ use crate::measurement::segments::{MoveOptions, auto_moves, slice_time};
 use crate::model::Robot;
 use crate::validation::log_price::price_log;
 
-/// Every how many runs (or moves) one is held out unless told otherwise (K).
+/// Every how many runs (or moves) one is held out unless told otherwise (K), where there are
+/// that many ([`default_every`]).
 pub const DEFAULT_EVERY: usize = 4;
+
+/// Fewest pieces a default holdout leaves one of out (the last): below, two pieces would
+/// leave half the logs to identify on.
+const MIN_DEFAULT_PIECES: usize = 3;
 
 /// Logs from which the held-out pieces are whole logs rather than moves.
 pub const MIN_RUNS: usize = 4;
@@ -60,18 +66,45 @@ pub struct Split {
     pub held_out: Vec<Log>,
 }
 
+/// The K of a holdout the user did not choose: [`DEFAULT_EVERY`], or the number of pieces
+/// where there are fewer but at least [`MIN_DEFAULT_PIECES`] (the last piece held out), so
+/// that three logs of one excitation each are checked out of sample too. The pieces are
+/// [`split`]'s: whole logs from [`MIN_RUNS`] logs on or along the Fourier route (`runs`),
+/// else rest-to-rest moves ([`auto_moves`] with `moves`).
+pub fn default_every(logs: &[Log], runs: bool, moves: &MoveOptions) -> usize {
+    let pieces = if runs || logs.len() >= MIN_RUNS {
+        logs.len()
+    } else {
+        logs.iter().map(|l| auto_moves(l, moves).len()).sum()
+    };
+    if (MIN_DEFAULT_PIECES..DEFAULT_EVERY).contains(&pieces) {
+        pieces
+    } else {
+        DEFAULT_EVERY
+    }
+}
+
 /// Hold out every `every`-th piece of `logs` (pieces `every`, `2 every`, ..., 1-based): whole
-/// logs when there are at least [`MIN_RUNS`] and `every` of them, else rest-to-rest moves
+/// logs when there are at least [`MIN_RUNS`] and `every` of them or when `runs` asks for
+/// them (the Fourier route fits whole periodic logs), else rest-to-rest moves
 /// ([`auto_moves`] with `moves`), numbered across the logs in order. Errors
 /// ([`Error::InvalidInput`]): `every` below 2, fewer than `every` pieces.
-pub fn split(logs: &[Log], every: usize, moves: &MoveOptions) -> Result<Split> {
+pub fn split(logs: &[Log], every: usize, runs: bool, moves: &MoveOptions) -> Result<Split> {
     if every < 2 {
         return Err(Error::InvalidInput(format!(
             "holdout every {every}-th piece: give 0 (no holdout) or at least 2"
         )));
     }
     let held = |n: usize| (n + 1).is_multiple_of(every);
-    if logs.len() >= MIN_RUNS.max(every) {
+    if runs && logs.len() < every {
+        return Err(Error::InvalidInput(format!(
+            "too few logs to leave out every {}: {} (the Fourier route, --base-freq, fits whole \
+             periodic logs and leaves out runs, not moves cut from them)",
+            ordinal(every),
+            logs.len()
+        )));
+    }
+    if runs || logs.len() >= MIN_RUNS.max(every) {
         let pick = |out: bool| -> Vec<Log> {
             logs.iter()
                 .enumerate()
@@ -180,9 +213,10 @@ pub struct Holdout {
 
 /// Hold out every `every`-th run or move of `logs` ([`split`]), identify `robot` on the rest
 /// along `route` with `opts` ([`identify_logs`]), and predict each held-out piece with that
-/// model. The figures are out of sample on the user's own robot. Errors: those of [`split`],
-/// moves along the Fourier route (it fits whole periodic logs), those of the identification
-/// on the remaining logs (e.g. too little excitation left) and of the prediction.
+/// model; along the Fourier route the pieces are whole logs (it fits whole periodic logs). The
+/// figures are out of sample on the user's own robot. Errors: those of [`split`], those of
+/// the identification on the remaining logs (e.g. too little excitation left) and of the
+/// prediction.
 pub fn holdout(
     robot: &Robot,
     logs: &[Log],
@@ -191,14 +225,8 @@ pub fn holdout(
     opts: &FitOptions,
     moves: &MoveOptions,
 ) -> Result<Holdout> {
-    let s = split(logs, every, moves)?;
-    if s.unit == Unit::Move && matches!(route, Route::Fourier { .. }) {
-        return Err(Error::InvalidInput(format!(
-            "the Fourier route (--base-freq) fits whole periodic logs, not moves cut from them: \
-             leaving out runs needs at least {} logs",
-            MIN_RUNS.max(every)
-        )));
-    }
+    let runs = matches!(route, Route::Fourier { .. });
+    let s = split(logs, every, runs, moves)?;
     let model = identify_logs(robot, &s.train, &[route], opts)?.fit.model;
     let pieces = s
         .held_out
@@ -330,21 +358,41 @@ mod tests {
     fn runs_then_moves_are_held_out() {
         let opts = MoveOptions::default();
         let five: Vec<Log> = (0..5).map(|_| log(1)).collect();
-        let s = split(&five, 4, &opts).unwrap();
+        let s = split(&five, 4, false, &opts).unwrap();
         assert_eq!((s.unit, s.train.len(), s.held_out.len()), (Unit::Run, 4, 1));
-        let s = split(&five, 2, &opts).unwrap();
+        let s = split(&five, 2, false, &opts).unwrap();
         assert_eq!((s.train.len(), s.held_out.len()), (3, 2));
         // Two logs of four moves: moves 4 and 8 held out, the rests around them kept.
         let two = vec![log(4), log(4)];
         assert_eq!(auto_moves(&two[0], &opts).len(), 4);
-        let s = split(&two, 4, &opts).unwrap();
+        let s = split(&two, 4, false, &opts).unwrap();
         assert_eq!((s.unit, s.held_out.len()), (Unit::Move, 2));
         assert_eq!(s.train.len(), 4);
         let held: usize = s.held_out.iter().map(Log::len).sum();
         let train: usize = s.train.iter().map(Log::len).sum();
         assert!(held + train <= 2 * two[0].len(), "{held} + {train}");
-        assert!(split(&[log(3)], 4, &opts).is_err());
-        assert!(split(&five, 1, &opts).is_err());
+        assert!(split(&[log(3)], 4, false, &opts).is_err());
+        assert!(split(&five, 1, false, &opts).is_err());
+        // Runs asked for (the Fourier route): whole logs, never moves.
+        let s = split(&two, 2, true, &opts).unwrap();
+        assert_eq!((s.unit, s.train.len(), s.held_out.len()), (Unit::Run, 1, 1));
+        assert!(split(&two, 4, true, &opts).is_err());
+    }
+
+    /// Three logs of one move each are checked by default too: the third held out.
+    #[test]
+    fn a_default_holdout_leaves_out_the_last_of_three_pieces() {
+        let opts = MoveOptions::default();
+        let logs = |k: usize, moves: usize| -> Vec<Log> { (0..k).map(|_| log(moves)).collect() };
+        assert_eq!(default_every(&logs(3, 1), false, &opts), 3);
+        assert_eq!(default_every(&logs(3, 1), true, &opts), 3);
+        assert_eq!(default_every(&logs(5, 1), false, &opts), DEFAULT_EVERY);
+        // Two logs of four moves: every 4th move; of one move each: too few either way.
+        assert_eq!(default_every(&logs(2, 4), false, &opts), DEFAULT_EVERY);
+        assert_eq!(default_every(&logs(2, 4), true, &opts), DEFAULT_EVERY);
+        assert_eq!(default_every(&logs(2, 1), false, &opts), DEFAULT_EVERY);
+        let s = split(&logs(3, 1), 3, false, &opts).unwrap();
+        assert_eq!((s.unit, s.held_out.len()), (Unit::Move, 1));
     }
 
     #[test]

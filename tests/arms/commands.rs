@@ -76,7 +76,13 @@ fn cli(arm: &Arm, tag: &str) {
     a.push("--data".into());
     a.extend(datasets);
     a.extend(["--out".into(), s(&model)]);
-    call("identify", &a);
+    let mut args = vec!["identify"];
+    args.extend(a.iter().map(String::as_str));
+    let (code, _, err) = powertwin(&args);
+    assert_eq!(code, 0, "{tag} identify: {err}");
+    // Three excitations along the Fourier route: by default the third is left out and
+    // predicted from the other two.
+    assert!(err.contains("every 3rd run left out (1)"), "{tag}: {err}");
     let mut a = robot.clone();
     a.extend(["--model".into(), s(&model), "--data".into(), data]);
     a.extend(["--base-freq", "0.1", "--json"].map(String::from));

@@ -24,7 +24,7 @@ use powertwin::measurement::segments::MoveOptions;
 use powertwin::model::payload::{PayloadEvent, resolve, timeline_from_file};
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
-use powertwin::validation::holdout::{DEFAULT_EVERY, Holdout, holdout};
+use powertwin::validation::holdout::{Holdout, default_every, holdout};
 use serde_json::json;
 
 use super::RobotArgs;
@@ -208,11 +208,12 @@ pub struct IdentifyArgs {
     #[arg(long)]
     arm_power_only: bool,
     /// Before fitting on everything, check the identification out of sample on your own
-    /// logs: leave out every K-th run (with fewer than 4 runs, every K-th rest-to-rest move),
-    /// identify on the rest with the same options and report each held-out piece's measured
-    /// and predicted energy, error, 95 % interval and power RMSE, then the median and worst
-    /// error and the interval coverage (stderr). 0 skips it; with too few pieces it is
-    /// skipped with a note. For --method auto, total, pmsm and gear [default: 4].
+    /// logs: leave out every K-th run (with fewer than 4 runs, every K-th rest-to-rest move;
+    /// with --base-freq always runs), identify on the rest with the same options and report
+    /// each held-out piece's measured and predicted energy, error, 95 % interval and power
+    /// RMSE, then the median and worst error and the interval coverage (stderr). 0 skips it;
+    /// with too few pieces it is skipped with a note. For --method auto, total, pmsm and gear
+    /// [default: 4, or 3 with three pieces: the last left out]
     #[arg(long, value_name = "K")]
     holdout: Option<usize>,
     /// Output model file (JSON: base parameters, losses, covariance, statistics).
@@ -390,7 +391,10 @@ fn report_holdout(
     fitted: bool,
     prior: &Option<Prior>,
 ) -> Option<Holdout> {
-    let every = args.holdout.unwrap_or(DEFAULT_EVERY);
+    let runs = matches!(route, Route::Fourier { .. });
+    let every = args
+        .holdout
+        .unwrap_or_else(|| default_every(logs, runs, &MoveOptions::default()));
     if every == 0 {
         return None;
     }
