@@ -67,10 +67,10 @@ pub struct Split {
 }
 
 /// The K of a holdout the user did not choose: [`DEFAULT_EVERY`], or the number of pieces
-/// where there are fewer but at least [`MIN_DEFAULT_PIECES`] (the last piece held out), so
-/// that three logs of one excitation each are checked out of sample too. The pieces are
-/// [`split`]'s: whole logs from [`MIN_RUNS`] logs on or along the Fourier route (`runs`),
-/// else rest-to-rest moves ([`auto_moves`] with `moves`).
+/// where there are fewer but at least three (the last piece held out), so that three logs of
+/// one excitation each are checked out of sample too. The pieces are [`split`]'s: whole logs
+/// from [`MIN_RUNS`] logs on or along the Fourier route (`runs`), else rest-to-rest moves
+/// ([`auto_moves`] with `moves`).
 pub fn default_every(logs: &[Log], runs: bool, moves: &MoveOptions) -> usize {
     let pieces = if runs || logs.len() >= MIN_RUNS {
         logs.len()

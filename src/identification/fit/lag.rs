@@ -93,7 +93,8 @@ pub(super) fn find_lag(
     if k == 0 || k == GRID - 1 {
         return Ok(0.0);
     }
-    let Some(lag) = trials.refine_around(k, &grid)? else {
+    // A least cost at lag 0 itself keeps none, without the evidence's fits.
+    let Some(lag) = trials.refine_around(k, &grid)?.filter(|&l| l != 0.0) else {
         return Ok(0.0);
     };
     // Keep the lag only where the data tell it from none: the likelihood ratio of the fits
