@@ -38,6 +38,7 @@ __all__ = [
     "read_dataset",
     "log_from_arrays",
     "identify",
+    "holdout",
     "sweep",
     "excite_set",
     "dataset_item",
@@ -414,8 +415,54 @@ def identify(
     the prior from the URDF and the robot's drive file. `runs`: Logs, or Runs with their
     known payloads. `min_speed` rad/s (default 0.05), `fit_rate` Hz, `weighting` "none" |
     "per-log" | "power-level", `prior_widths` {mass, com (m), inertia, friction, rotor,
-    copper, gear}: the CLI's options. (The CLI's held-out check, `--holdout`, is not run: it
+    copper, gear}: the CLI's options. (The CLI's held-out check, `--holdout`, is `holdout`: it
     does not change the model.)"""
+    inner = _pt.identify(
+        robot, _logs_of(runs), method, base_freq, int(harmonics), smoothing_window, min_speed,
+        float(fit_rate), weighting, bool(unconstrained), bool(arm_power_only), bool(prior),
+        None if prior_widths is None else dict(prior_widths),
+    )
+    return Model(inner, robot)
+
+
+def holdout(
+    robot: Robot,
+    runs: Sequence[Union[Log, Run]],
+    *,
+    every: Optional[int] = None,
+    method: str = "auto",
+    base_freq: Optional[float] = None,
+    harmonics: int = 5,
+    smoothing_window: Optional[int] = None,
+    min_speed: Optional[float] = None,
+    fit_rate: float = MAX_FIT_RATE_HZ,
+    weighting: Optional[str] = None,
+    unconstrained: bool = False,
+    arm_power_only: bool = False,
+    prior: bool = True,
+    prior_widths: Optional[Mapping[str, float]] = None,
+) -> dict:
+    """Is my model good? Check `identify` out of sample on your own logs, as `powertwin identify
+    --holdout K` does before fitting on everything: leave out every K-th run (with fewer than 4
+    runs, every K-th rest-to-rest move; with `base_freq`, always runs), identify on the rest
+    with the same options as `identify` and predict each piece left out. `every`: K (None: the
+    CLI's default, 4, or 3 where there are only three pieces). Returns the CLI's `identify
+    --json` "holdout": `every`, `unit` ("run" | "move"), `trained_on`, `pieces` (each with
+    `source`, `measured_J`, `predicted_J`, `interval_95_J`, `error_pct`, `covered`,
+    `power_rmse_W`), `median_abs_error_pct`, `worst_abs_error_pct`, `coverage` (0-1) and
+    `median_power_rmse_W`. Raises ValueError where there are too few pieces to leave one out."""
+    text = _pt.holdout(
+        robot, _logs_of(runs), None if every is None else int(every), method, base_freq,
+        int(harmonics), smoothing_window, min_speed, float(fit_rate), weighting,
+        bool(unconstrained), bool(arm_power_only), bool(prior),
+        None if prior_widths is None else dict(prior_widths),
+    )
+    return json.loads(text)
+
+
+def _logs_of(runs: Sequence[Union[Log, Run]]) -> list:
+    """The logs of `runs` (Logs, or Runs resolved with their payloads); ValueError for anything
+    else or none."""
     logs = []
     for k, r in enumerate(runs):
         if isinstance(r, Run):
@@ -426,12 +473,7 @@ def identify(
             raise ValueError(f"runs[{k}]: expected a powertwin.Log or Run, got {type(r).__name__}")
     if not logs:
         raise ValueError("runs: no log given")
-    inner = _pt.identify(
-        robot, logs, method, base_freq, int(harmonics), smoothing_window, min_speed,
-        float(fit_rate), weighting, bool(unconstrained), bool(arm_power_only), bool(prior),
-        None if prior_widths is None else dict(prior_widths),
-    )
-    return Model(inner, robot)
+    return logs
 
 
 def excite_set(

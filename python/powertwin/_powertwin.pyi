@@ -116,6 +116,22 @@ def identify(
     prior: bool,
     prior_widths: Optional[dict[str, float]],
 ) -> Model: ...
+def holdout(
+    robot: Robot,
+    logs: Sequence[Log],
+    every: Optional[int],
+    method: str,
+    base_freq: Optional[float],
+    harmonics: int,
+    smoothing_window: Optional[int],
+    min_speed: Optional[float],
+    fit_rate: float,
+    weighting: Optional[str],
+    unconstrained: bool,
+    arm_power_only: bool,
+    prior: bool,
+    prior_widths: Optional[dict[str, float]],
+) -> str: ...
 def sweep(
     robot: Robot,
     model: Optional[Model],

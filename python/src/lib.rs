@@ -73,6 +73,7 @@ fn _powertwin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(runs::read_log, m)?)?;
     m.add_function(wrap_pyfunction!(runs::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(model::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(model::holdout, m)?)?;
     m.add_function(wrap_pyfunction!(excite::excite_set, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_cell, m)?)?;

@@ -1,4 +1,5 @@
-//! `identify` and the identified `Model` (predict, save, load, export).
+//! `identify`, its out-of-sample `holdout`, and the identified `Model` (predict, save, load,
+//! export).
 
 use std::path::PathBuf;
 
@@ -12,13 +13,15 @@ use powertwin::identification::fit::{Estimator, FitOptions, Weighting, identify_
 use powertwin::identification::lsq::Estimate;
 use powertwin::identification::model::{DATASHEET_EFFICIENCY, PowerModel, check_schema_version};
 use powertwin::identification::plan::{LIMIT_CHECK_DT_S, PlanPrice, price, read_plan};
-use powertwin::identification::prior::PriorWidths;
+use powertwin::identification::prior::{Prior, PriorWidths};
 use powertwin::io::write_atomic;
+use powertwin::measurement::segments::MoveOptions;
 use powertwin::model::payload::{PayloadEvent, resolve};
 use powertwin::trajectory::limits::check_limits;
 use powertwin::trajectory::sampled::Sampled;
 use powertwin::validation::estimators::MIN_SPEED;
 use powertwin::validation::heldout::LOG_ROUTE;
+use powertwin::validation::holdout::{self as held_out, default_every};
 use powertwin::validation::log_price::price_measured;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -133,10 +136,63 @@ fn check_dof(robot: &PyRobot, logs: &[powertwin::measurement::Log]) -> PyResult<
     Ok(())
 }
 
+/// What `identify` and `holdout` fit with: the logs, the fit's options, the route and the
+/// prior of the URDF and drive file.
+struct Setup {
+    logs: Vec<powertwin::measurement::Log>,
+    opts: FitOptions,
+    route: Route,
+    prior: Option<Prior>,
+}
+
+/// The [`Setup`] of `identify`'s arguments (the CLI's options of the same names).
+#[allow(clippy::too_many_arguments)]
+fn setup(
+    robot: &PyRobot,
+    logs: Vec<PyRef<'_, PyLog>>,
+    method: &str,
+    (base_freq, harmonics, smoothing_window): (Option<f64>, usize, Option<usize>),
+    min_speed: Option<f64>,
+    fit_rate: f64,
+    weighting: Option<String>,
+    (unconstrained, arm_power_only): (bool, bool),
+    prior: bool,
+    prior_widths: Option<std::collections::HashMap<String, f64>>,
+) -> PyResult<Setup> {
+    let (candidates, weighting) = estimators(method, weighting.as_deref())?;
+    let logs: Vec<powertwin::measurement::Log> = logs.iter().map(|l| l.log.clone()).collect();
+    check_dof(robot, &logs)?;
+    let prior = if prior {
+        let drive = robot.drive()?;
+        Some(
+            Prior::for_robot(&robot.robot, drive.as_ref(), &widths(prior_widths)?)
+                .map_err(ctx("building the prior from the URDF and drive file"))?,
+        )
+    } else {
+        None
+    };
+    let opts = FitOptions {
+        min_speed: min_speed.unwrap_or(MIN_SPEED),
+        candidates,
+        weighting,
+        consistent: !unconstrained,
+        motor_power: !arm_power_only,
+        max_fit_rate_hz: fit_rate,
+        prior: prior.clone(),
+        ..FitOptions::default()
+    };
+    Ok(Setup {
+        logs,
+        opts,
+        route: route(base_freq, harmonics, smoothing_window),
+        prior,
+    })
+}
+
 /// Identify a power model from logs, as `powertwin identify --method auto|total|pmsm` does
 /// (the estimator chosen by cross-validation; physically consistent unless `unconstrained`;
 /// the prior from the URDF and the robot's drive file unless `prior=False`). The held-out
-/// check of `identify --holdout` is not run (it does not change the model).
+/// check of `identify --holdout` is [`holdout`] (it does not change the model).
 #[pyfunction]
 #[pyo3(signature = (robot, logs, method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting, unconstrained, arm_power_only, prior, prior_widths))]
 #[allow(clippy::too_many_arguments)]
@@ -156,33 +212,23 @@ pub fn identify(
     prior: bool,
     prior_widths: Option<std::collections::HashMap<String, f64>>,
 ) -> PyResult<PyModel> {
-    let (candidates, weighting) = estimators(method, weighting.as_deref())?;
-    let logs: Vec<powertwin::measurement::Log> = logs.iter().map(|l| l.log.clone()).collect();
-    check_dof(robot, &logs)?;
-    let prior = if prior {
-        let drive = robot.drive()?;
-        Some(
-            powertwin::identification::prior::Prior::for_robot(
-                &robot.robot,
-                drive.as_ref(),
-                &widths(prior_widths)?,
-            )
-            .map_err(ctx("building the prior from the URDF and drive file"))?,
-        )
-    } else {
-        None
-    };
-    let opts = FitOptions {
-        min_speed: min_speed.unwrap_or(MIN_SPEED),
-        candidates,
+    let Setup {
+        logs,
+        opts,
+        route,
+        prior,
+    } = setup(
+        robot,
+        logs,
+        method,
+        (base_freq, harmonics, smoothing_window),
+        min_speed,
+        fit_rate,
         weighting,
-        consistent: !unconstrained,
-        motor_power: !arm_power_only,
-        max_fit_rate_hz: fit_rate,
-        prior: prior.clone(),
-        ..FitOptions::default()
-    };
-    let route = route(base_freq, harmonics, smoothing_window);
+        (unconstrained, arm_power_only),
+        prior,
+        prior_widths,
+    )?;
     let r = &robot.robot;
     py.detach(|| -> PyResult<PyModel> {
         let sel = identify_logs(r, &logs, &[route], &opts).map_err(ctx(""))?;
@@ -207,6 +253,55 @@ pub fn identify(
             estimate: estimates.into_iter().next_back(),
             doc,
         })
+    })
+}
+
+/// Check an identification out of sample on the user's own logs, as `powertwin identify
+/// --holdout K` does before fitting on everything: leave out every K-th run (with fewer than
+/// 4 runs, every K-th rest-to-rest move; along the Fourier route always runs), identify on the
+/// rest with `identify`'s options and predict each piece left out. `every`: K (`None`: the
+/// CLI's default). Returns the JSON of `identify --json`'s `holdout`. Errors: too few pieces,
+/// and those of the identification and predictions.
+#[pyfunction]
+#[pyo3(signature = (robot, logs, every, method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting, unconstrained, arm_power_only, prior, prior_widths))]
+#[allow(clippy::too_many_arguments)]
+pub fn holdout(
+    py: Python<'_>,
+    robot: &PyRobot,
+    logs: Vec<PyRef<'_, PyLog>>,
+    every: Option<usize>,
+    method: &str,
+    base_freq: Option<f64>,
+    harmonics: usize,
+    smoothing_window: Option<usize>,
+    min_speed: Option<f64>,
+    fit_rate: f64,
+    weighting: Option<String>,
+    unconstrained: bool,
+    arm_power_only: bool,
+    prior: bool,
+    prior_widths: Option<std::collections::HashMap<String, f64>>,
+) -> PyResult<String> {
+    let s = setup(
+        robot,
+        logs,
+        method,
+        (base_freq, harmonics, smoothing_window),
+        min_speed,
+        fit_rate,
+        weighting,
+        (unconstrained, arm_power_only),
+        prior,
+        prior_widths,
+    )?;
+    let moves = MoveOptions::default();
+    let runs = matches!(s.route, Route::Fourier { .. });
+    let every = every.unwrap_or_else(|| default_every(&s.logs, runs, &moves));
+    let r = &robot.robot;
+    py.detach(|| {
+        let h = held_out::holdout(r, &s.logs, every, s.route, &s.opts, &moves)
+            .map_err(ctx("holdout"))?;
+        serde_json::to_string(&h).map_err(|e| value_error(e.to_string()))
     })
 }
 

@@ -44,6 +44,20 @@ def test_identify_saves_the_cli_model_file(robot, work):
     assert (d / "py_identified.urdf").read_bytes() == (d / "cli_identified.urdf").read_bytes()
 
 
+def test_holdout_equals_cli(robot, work, tmp_path):
+    """`holdout` is `identify --holdout K`'s check: the same pieces, predictions and figures."""
+    d = work["dir"]
+    runs = [d / "cli_run0", d / "cli_run1"]
+    cli = json.loads(run_cli("identify", "--data", *runs, "--holdout", "2", "--json",
+                             "--out", tmp_path / "m.json").stdout)["holdout"]
+    py = pt.holdout(robot, [pt.read_dataset(r) for r in runs], every=2)
+    assert py == cli
+    assert py["unit"] == "move" and len(py["pieces"]) == 1
+    # Two pieces are too few for the default K: an error, not a silent skip.
+    with pytest.raises(ValueError, match="too few pieces"):
+        pt.holdout(robot, [pt.read_dataset(r) for r in runs])
+
+
 def test_predict_equals_cli(robot, work):
     d = work["dir"]
     model = pt.Model.load(d / "cli_model.json", robot)
