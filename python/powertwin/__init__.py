@@ -417,12 +417,11 @@ def identify(
     "per-log" | "power-level", `prior_widths` {mass, com (m), inertia, friction, rotor,
     copper, gear}: the CLI's options. (The CLI's held-out check, `--holdout`, is `holdout`: it
     does not change the model.)"""
-    inner = _pt.identify(
-        robot, _logs_of(runs), method, base_freq, int(harmonics), smoothing_window, min_speed,
-        float(fit_rate), weighting, bool(unconstrained), bool(arm_power_only), bool(prior),
-        None if prior_widths is None else dict(prior_widths),
+    args = _fit_args(
+        method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting,
+        unconstrained, arm_power_only, prior, prior_widths,
     )
-    return Model(inner, robot)
+    return Model(_pt.identify(robot, _logs_of(runs), args), robot)
 
 
 def holdout(
@@ -451,13 +450,30 @@ def holdout(
     `source`, `measured_J`, `predicted_J`, `interval_95_J`, `error_pct`, `covered`,
     `power_rmse_W`), `median_abs_error_pct`, `worst_abs_error_pct`, `coverage` (0-1) and
     `median_power_rmse_W`. Raises ValueError where there are too few pieces to leave one out."""
-    text = _pt.holdout(
-        robot, _logs_of(runs), None if every is None else int(every), method, base_freq,
-        int(harmonics), smoothing_window, min_speed, float(fit_rate), weighting,
-        bool(unconstrained), bool(arm_power_only), bool(prior),
-        None if prior_widths is None else dict(prior_widths),
+    args = _fit_args(
+        method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting,
+        unconstrained, arm_power_only, prior, prior_widths,
     )
-    return json.loads(text)
+    every = None if every is None else int(every)
+    return json.loads(_pt.holdout(robot, _logs_of(runs), every, args))
+
+
+def _fit_args(method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting,
+              unconstrained, arm_power_only, prior, prior_widths) -> dict:
+    """`identify`'s and `holdout`'s options as the bindings take them."""
+    return {
+        "method": method,
+        "base_freq": base_freq,
+        "harmonics": int(harmonics),
+        "smoothing_window": smoothing_window,
+        "min_speed": min_speed,
+        "fit_rate": float(fit_rate),
+        "weighting": weighting,
+        "unconstrained": bool(unconstrained),
+        "arm_power_only": bool(arm_power_only),
+        "prior": bool(prior),
+        "prior_widths": None if prior_widths is None else dict(prior_widths),
+    }
 
 
 def _logs_of(runs: Sequence[Union[Log, Run]]) -> list:

@@ -101,37 +101,8 @@ def dataset_item(
 ) -> dict[str, Any]: ...
 def read_log(path: str, columns: Optional[str] = None, power: Optional[str] = None, power_lag: str = "report") -> list[Log]: ...
 def read_dataset(path: str) -> Log: ...
-def identify(
-    robot: Robot,
-    logs: Sequence[Log],
-    method: str,
-    base_freq: Optional[float],
-    harmonics: int,
-    smoothing_window: Optional[int],
-    min_speed: Optional[float],
-    fit_rate: float,
-    weighting: Optional[str],
-    unconstrained: bool,
-    arm_power_only: bool,
-    prior: bool,
-    prior_widths: Optional[dict[str, float]],
-) -> Model: ...
-def holdout(
-    robot: Robot,
-    logs: Sequence[Log],
-    every: Optional[int],
-    method: str,
-    base_freq: Optional[float],
-    harmonics: int,
-    smoothing_window: Optional[int],
-    min_speed: Optional[float],
-    fit_rate: float,
-    weighting: Optional[str],
-    unconstrained: bool,
-    arm_power_only: bool,
-    prior: bool,
-    prior_widths: Optional[dict[str, float]],
-) -> str: ...
+def identify(robot: Robot, logs: Sequence[Log], args: dict[str, Any]) -> Model: ...
+def holdout(robot: Robot, logs: Sequence[Log], every: Optional[int], args: dict[str, Any]) -> str: ...
 def sweep(
     robot: Robot,
     model: Optional[Model],

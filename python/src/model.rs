@@ -136,71 +136,12 @@ fn check_dof(robot: &PyRobot, logs: &[powertwin::measurement::Log]) -> PyResult<
     Ok(())
 }
 
-/// What `identify` and `holdout` fit with: the logs, the fit's options, the route and the
-/// prior of the URDF and drive file.
-struct Setup {
-    logs: Vec<powertwin::measurement::Log>,
-    opts: FitOptions,
-    route: Route,
-    prior: Option<Prior>,
-}
-
-/// The [`Setup`] of `identify`'s arguments (the CLI's options of the same names).
-#[allow(clippy::too_many_arguments)]
-fn setup(
-    robot: &PyRobot,
-    logs: Vec<PyRef<'_, PyLog>>,
-    method: &str,
-    (base_freq, harmonics, smoothing_window): (Option<f64>, usize, Option<usize>),
-    min_speed: Option<f64>,
-    fit_rate: f64,
-    weighting: Option<String>,
-    (unconstrained, arm_power_only): (bool, bool),
-    prior: bool,
-    prior_widths: Option<std::collections::HashMap<String, f64>>,
-) -> PyResult<Setup> {
-    let (candidates, weighting) = estimators(method, weighting.as_deref())?;
-    let logs: Vec<powertwin::measurement::Log> = logs.iter().map(|l| l.log.clone()).collect();
-    check_dof(robot, &logs)?;
-    let prior = if prior {
-        let drive = robot.drive()?;
-        Some(
-            Prior::for_robot(&robot.robot, drive.as_ref(), &widths(prior_widths)?)
-                .map_err(ctx("building the prior from the URDF and drive file"))?,
-        )
-    } else {
-        None
-    };
-    let opts = FitOptions {
-        min_speed: min_speed.unwrap_or(MIN_SPEED),
-        candidates,
-        weighting,
-        consistent: !unconstrained,
-        motor_power: !arm_power_only,
-        max_fit_rate_hz: fit_rate,
-        prior: prior.clone(),
-        ..FitOptions::default()
-    };
-    Ok(Setup {
-        logs,
-        opts,
-        route: route(base_freq, harmonics, smoothing_window),
-        prior,
-    })
-}
-
-/// Identify a power model from logs, as `powertwin identify --method auto|total|pmsm` does
-/// (the estimator chosen by cross-validation; physically consistent unless `unconstrained`;
-/// the prior from the URDF and the robot's drive file unless `prior=False`). The held-out
-/// check of `identify --holdout` is [`holdout`] (it does not change the model).
-#[pyfunction]
-#[pyo3(signature = (robot, logs, method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting, unconstrained, arm_power_only, prior, prior_widths))]
-#[allow(clippy::too_many_arguments)]
-pub fn identify(
-    py: Python<'_>,
-    robot: &PyRobot,
-    logs: Vec<PyRef<'_, PyLog>>,
-    method: &str,
+/// `identify`'s and `holdout`'s options as the Python wrappers pass them: a dict with these
+/// keys, the CLI's options of the same names.
+#[derive(FromPyObject)]
+#[pyo3(from_item_all)]
+pub struct FitArgs {
+    method: String,
     base_freq: Option<f64>,
     harmonics: usize,
     smoothing_window: Option<usize>,
@@ -211,24 +152,67 @@ pub fn identify(
     arm_power_only: bool,
     prior: bool,
     prior_widths: Option<std::collections::HashMap<String, f64>>,
+}
+
+/// What `identify` and `holdout` fit with: the logs, the fit's options, the route and the
+/// prior of the URDF and drive file.
+struct Setup {
+    logs: Vec<powertwin::measurement::Log>,
+    opts: FitOptions,
+    route: Route,
+    prior: Option<Prior>,
+}
+
+/// The [`Setup`] of `logs` and `args` on `robot`.
+fn setup(robot: &PyRobot, logs: Vec<PyRef<'_, PyLog>>, args: FitArgs) -> PyResult<Setup> {
+    let (candidates, weighting) = estimators(&args.method, args.weighting.as_deref())?;
+    let logs: Vec<powertwin::measurement::Log> = logs.iter().map(|l| l.log.clone()).collect();
+    check_dof(robot, &logs)?;
+    let prior = if args.prior {
+        let drive = robot.drive()?;
+        Some(
+            Prior::for_robot(&robot.robot, drive.as_ref(), &widths(args.prior_widths)?)
+                .map_err(ctx("building the prior from the URDF and drive file"))?,
+        )
+    } else {
+        None
+    };
+    let opts = FitOptions {
+        min_speed: args.min_speed.unwrap_or(MIN_SPEED),
+        candidates,
+        weighting,
+        consistent: !args.unconstrained,
+        motor_power: !args.arm_power_only,
+        max_fit_rate_hz: args.fit_rate,
+        prior: prior.clone(),
+        ..FitOptions::default()
+    };
+    Ok(Setup {
+        logs,
+        opts,
+        route: route(args.base_freq, args.harmonics, args.smoothing_window),
+        prior,
+    })
+}
+
+/// Identify a power model from logs, as `powertwin identify --method auto|total|pmsm` does
+/// (the estimator chosen by cross-validation; physically consistent unless `unconstrained`;
+/// the prior from the URDF and the robot's drive file unless `prior=False`). The held-out
+/// check of `identify --holdout` is [`holdout`] (it does not change the model).
+#[pyfunction]
+pub fn identify(
+    py: Python<'_>,
+    robot: &PyRobot,
+    logs: Vec<PyRef<'_, PyLog>>,
+    args: FitArgs,
 ) -> PyResult<PyModel> {
+    let method = args.method.clone();
     let Setup {
         logs,
         opts,
         route,
         prior,
-    } = setup(
-        robot,
-        logs,
-        method,
-        (base_freq, harmonics, smoothing_window),
-        min_speed,
-        fit_rate,
-        weighting,
-        (unconstrained, arm_power_only),
-        prior,
-        prior_widths,
-    )?;
+    } = setup(robot, logs, args)?;
     let r = &robot.robot;
     py.detach(|| -> PyResult<PyModel> {
         let sel = identify_logs(r, &logs, &[route], &opts).map_err(ctx(""))?;
@@ -263,37 +247,14 @@ pub fn identify(
 /// CLI's default). Returns the JSON of `identify --json`'s `holdout`. Errors: too few pieces,
 /// and those of the identification and predictions.
 #[pyfunction]
-#[pyo3(signature = (robot, logs, every, method, base_freq, harmonics, smoothing_window, min_speed, fit_rate, weighting, unconstrained, arm_power_only, prior, prior_widths))]
-#[allow(clippy::too_many_arguments)]
 pub fn holdout(
     py: Python<'_>,
     robot: &PyRobot,
     logs: Vec<PyRef<'_, PyLog>>,
     every: Option<usize>,
-    method: &str,
-    base_freq: Option<f64>,
-    harmonics: usize,
-    smoothing_window: Option<usize>,
-    min_speed: Option<f64>,
-    fit_rate: f64,
-    weighting: Option<String>,
-    unconstrained: bool,
-    arm_power_only: bool,
-    prior: bool,
-    prior_widths: Option<std::collections::HashMap<String, f64>>,
+    args: FitArgs,
 ) -> PyResult<String> {
-    let s = setup(
-        robot,
-        logs,
-        method,
-        (base_freq, harmonics, smoothing_window),
-        min_speed,
-        fit_rate,
-        weighting,
-        (unconstrained, arm_power_only),
-        prior,
-        prior_widths,
-    )?;
+    let s = setup(robot, logs, args)?;
     let moves = MoveOptions::default();
     let runs = matches!(s.route, Route::Fourier { .. });
     let every = every.unwrap_or_else(|| default_every(&s.logs, runs, &moves));
