@@ -256,8 +256,7 @@ pub fn holdout(
 ) -> PyResult<String> {
     let s = setup(robot, logs, args)?;
     let moves = MoveOptions::default();
-    let runs = matches!(s.route, Route::Fourier { .. });
-    let every = every.unwrap_or_else(|| default_every(&s.logs, runs, &moves));
+    let every = every.unwrap_or_else(|| default_every(&s.logs, s.route, &moves));
     let r = &robot.robot;
     py.detach(|| {
         let h = held_out::holdout(r, &s.logs, every, s.route, &s.opts, &moves)

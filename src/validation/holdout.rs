@@ -69,10 +69,10 @@ pub struct Split {
 /// The K of a holdout the user did not choose: [`DEFAULT_EVERY`], or the number of pieces
 /// where there are fewer but at least three (the last piece held out), so that three logs of
 /// one excitation each are checked out of sample too. The pieces are [`split`]'s: whole logs
-/// from [`MIN_RUNS`] logs on or along the Fourier route (`runs`), else rest-to-rest moves
+/// from [`MIN_RUNS`] logs on or along the Fourier `route`, else rest-to-rest moves
 /// ([`auto_moves`] with `moves`).
-pub fn default_every(logs: &[Log], runs: bool, moves: &MoveOptions) -> usize {
-    let pieces = if runs || logs.len() >= MIN_RUNS {
+pub fn default_every(logs: &[Log], route: Route, moves: &MoveOptions) -> usize {
+    let pieces = if whole_logs(route) || logs.len() >= MIN_RUNS {
         logs.len()
     } else {
         logs.iter().map(|l| auto_moves(l, moves).len()).sum()
@@ -82,6 +82,11 @@ pub fn default_every(logs: &[Log], runs: bool, moves: &MoveOptions) -> usize {
     } else {
         DEFAULT_EVERY
     }
+}
+
+/// Whether `route` leaves out whole logs only: the Fourier route fits whole periodic logs.
+fn whole_logs(route: Route) -> bool {
+    matches!(route, Route::Fourier { .. })
 }
 
 /// Hold out every `every`-th piece of `logs` (pieces `every`, `2 every`, ..., 1-based): whole
@@ -225,8 +230,7 @@ pub fn holdout(
     opts: &FitOptions,
     moves: &MoveOptions,
 ) -> Result<Holdout> {
-    let runs = matches!(route, Route::Fourier { .. });
-    let s = split(logs, every, runs, moves)?;
+    let s = split(logs, every, whole_logs(route), moves)?;
     let model = identify_logs(robot, &s.train, &[route], opts)?.fit.model;
     let pieces = s
         .held_out
@@ -384,13 +388,26 @@ mod tests {
     fn a_default_holdout_leaves_out_the_last_of_three_pieces() {
         let opts = MoveOptions::default();
         let logs = |k: usize, moves: usize| -> Vec<Log> { (0..k).map(|_| log(moves)).collect() };
-        assert_eq!(default_every(&logs(3, 1), false, &opts), 3);
-        assert_eq!(default_every(&logs(3, 1), true, &opts), 3);
-        assert_eq!(default_every(&logs(5, 1), false, &opts), DEFAULT_EVERY);
+        let fourier = Route::Fourier {
+            base_freq_hz: 0.5,
+            harmonics: 3,
+        };
+        assert_eq!(default_every(&logs(3, 1), Route::Spline, &opts), 3);
+        assert_eq!(default_every(&logs(3, 1), fourier, &opts), 3);
+        assert_eq!(
+            default_every(&logs(5, 1), Route::Spline, &opts),
+            DEFAULT_EVERY
+        );
         // Two logs of four moves: every 4th move; of one move each: too few either way.
-        assert_eq!(default_every(&logs(2, 4), false, &opts), DEFAULT_EVERY);
-        assert_eq!(default_every(&logs(2, 4), true, &opts), DEFAULT_EVERY);
-        assert_eq!(default_every(&logs(2, 1), false, &opts), DEFAULT_EVERY);
+        assert_eq!(
+            default_every(&logs(2, 4), Route::Spline, &opts),
+            DEFAULT_EVERY
+        );
+        assert_eq!(default_every(&logs(2, 4), fourier, &opts), DEFAULT_EVERY);
+        assert_eq!(
+            default_every(&logs(2, 1), Route::Spline, &opts),
+            DEFAULT_EVERY
+        );
         let s = split(&logs(3, 1), 3, false, &opts).unwrap();
         assert_eq!((s.unit, s.held_out.len()), (Unit::Move, 1));
     }

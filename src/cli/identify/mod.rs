@@ -391,10 +391,9 @@ fn report_holdout(
     fitted: bool,
     prior: &Option<Prior>,
 ) -> Option<Holdout> {
-    let runs = matches!(route, Route::Fourier { .. });
     let every = args
         .holdout
-        .unwrap_or_else(|| default_every(logs, runs, &MoveOptions::default()));
+        .unwrap_or_else(|| default_every(logs, route, &MoveOptions::default()));
     if every == 0 {
         return None;
     }
