@@ -104,14 +104,13 @@ fn cli(arm: &Arm, tag: &str) {
     assert_eq!(motions.len(), 3, "{tag}: {v}");
     assert_eq!(motions[2]["kind"], "linear", "{tag}: {v}");
     // The excitations carried no payload, so the wrists' copper losses are held at zero; the
-    // loaded motions' intervals keep those coefficients' spread and cover the truth (on the
-    // UR5 the loaded motions were 0.5-1.3 % low and outside their intervals before). Every
-    // interval is a few per cent of the energy at most: taken at a free fit whose held
-    // coefficient had run off, they were +-4e4 % on the Panda (joint 7's copper coefficient
-    // 1e3-1e4 W/(N m)^2 in the free fit), and covered whatever the error. The unloaded
-    // Fourier motion, mostly standby, was 1.1 % low against +-0.7 % when the lag search
-    // took a 5.8 ms power lag from a jump between two branches of its fits (the twin logs
-    // none) and the standby moved 0.66 W with it (docs/experiments.md#a-spurious-power-lag).
+    // loaded motions' intervals keep those coefficients' spread and must cover the truth.
+    // Every interval must stay a few per cent of the energy: one taken at a free fit whose
+    // held coefficient had run off covers whatever the error
+    // (docs/experiments.md#copper-losses-without-a-drive-file). The unloaded Fourier motion,
+    // mostly standby, must be covered too: it was missed while the lag search took a lag the
+    // twin does not log from a jump between two branches of its fits
+    // (docs/experiments.md#a-spurious-power-lag).
     for m in motions {
         let e = m["from_log"]["energy_error_pct"].as_f64().unwrap();
         assert!(e.abs() < 5.0, "{tag} held-out motion: {m}");

@@ -391,10 +391,7 @@ fn report_holdout(
     fitted: bool,
     prior: &Option<Prior>,
 ) -> Option<Holdout> {
-    let every = args
-        .holdout
-        .unwrap_or_else(|| default_every(logs, route, &MoveOptions::default()));
-    if every == 0 {
+    if args.holdout == Some(0) {
         return None;
     }
     if !fitted {
@@ -403,8 +400,12 @@ fn report_holdout(
         }
         return None;
     }
+    let moves = MoveOptions::default();
+    let every = args
+        .holdout
+        .unwrap_or_else(|| default_every(logs, route, &moves));
     let opts = fit_options(args, min_speed, prior.clone());
-    match holdout(robot, logs, every, route, &opts, &MoveOptions::default()) {
+    match holdout(robot, logs, every, route, &opts, &moves) {
         Ok(h) => {
             eprintln!("{h}");
             Some(h)
